@@ -19,6 +19,7 @@ struct SimSettings {
   std::array<double, 3> gravity{0.0, -9.81, 0.0};
   double sleep_speed = 1e-4;         // m/s: a region slower than this for sleep_ticks sleeps
   int sleep_ticks = 50;
+  double max_tool_speed = 20.0;      // m/s: a tool moving faster between ticks teleported (no sweep)
 };
 
 }  // namespace sculpt::sim
