@@ -1,0 +1,192 @@
+"""The test VM's initramfs: busybox, two kernel modules, the test binaries and
+the shared libraries they load, and an /init that runs them and powers off.
+
+The archive is written directly in the kernel's "newc" cpio format (a few
+lines of Python: no cpio binary, no staging tree, no root needed for the
+/dev/console node).
+
+What /init prints on the serial console, one marker per line, is the whole
+protocol with the host (qemu exits 0 whatever happened inside):
+    @@SCULPT-VM kernel <uname -r>
+    @@SCULPT-VM begin <test name>
+    ... the test's own gtest output ...
+    @@SCULPT-VM end <test name> <exit status>
+    @@SCULPT-VM done
+    @@SCULPT-VM error <what went wrong>
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import stat
+import subprocess
+from dataclasses import dataclass, field
+from pathlib import Path
+
+MARK = "@@SCULPT-VM"
+BUSYBOX_CANDIDATES = ("/bin/busybox", "/usr/bin/busybox")
+
+
+class ImageError(RuntimeError):
+    pass
+
+
+def find_busybox() -> Path | None:
+    """A statically linked busybox (the guest has no libc of its own for it)."""
+    for c in BUSYBOX_CANDIDATES:
+        p = Path(c)
+        if p.is_file():
+            return p
+    found = shutil.which("busybox")
+    return Path(found) if found else None
+
+
+def shared_libraries(binary: Path) -> list[Path]:
+    """The files `ldd` says the binary loads, the dynamic loader included."""
+    p = subprocess.run(["ldd", str(binary)], capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    out = p.stdout + p.stderr
+    if re.search(r"not a dynamic executable|statically linked", out):
+        return []
+    if p.returncode != 0:
+        raise ImageError(f"ldd {binary} failed: {out.strip()}")
+    libs = []
+    for line in out.splitlines():
+        line = line.strip()
+        if "not found" in line:
+            raise ImageError(f"{binary}: a shared library is missing on the host: {line}")
+        m = re.search(r"=>\s*(/\S+)\s*\(", line) or re.match(r"(/\S+)\s*\(", line)
+        if m:
+            libs.append(Path(m.group(1)))
+    return libs
+
+
+class Cpio:
+    """A newc cpio archive built in memory."""
+
+    def __init__(self) -> None:
+        self._parts: list[bytes] = []
+        self._ino = 1
+        self._dirs: set[str] = set()
+        self._names: set[str] = set()
+
+    def _entry(self, name: str, mode: int, data: bytes = b"", rdev: tuple[int, int] = (0, 0)) -> None:
+        name = name.lstrip("/")
+        fields = [self._ino, mode, 0, 0, 1, 0, len(data), 0, 0, rdev[0], rdev[1], len(name) + 1, 0]
+        self._ino += 1
+        header = b"070701" + b"".join(b"%08X" % f for f in fields)
+        blob = header + name.encode() + b"\0"
+        blob += b"\0" * (-len(blob) % 4)
+        blob += data + b"\0" * (-len(data) % 4)
+        self._parts.append(blob)
+        self._names.add(name)
+
+    def dir(self, path: str) -> None:
+        path = path.strip("/")
+        if not path or path in self._dirs:
+            return
+        self.dir(os.path.dirname(path))
+        self._dirs.add(path)
+        self._entry(path, stat.S_IFDIR | 0o755)
+
+    def file(self, path: str, data: bytes, mode: int = 0o755) -> None:
+        if path.lstrip("/") in self._names:
+            return
+        self.dir(os.path.dirname(path.strip("/")))
+        self._entry(path, stat.S_IFREG | mode, data)
+
+    def symlink(self, path: str, target: str) -> None:
+        self.dir(os.path.dirname(path.strip("/")))
+        self._entry(path, stat.S_IFLNK | 0o777, target.encode())
+
+    def chardev(self, path: str, major: int, minor: int) -> None:
+        self.dir(os.path.dirname(path.strip("/")))
+        self._entry(path, stat.S_IFCHR | 0o600, rdev=(major, minor))
+
+    def has(self, path: str) -> bool:
+        return path.lstrip("/") in self._names
+
+    def bytes(self) -> bytes:
+        trailer = Cpio()
+        trailer._entry("TRAILER!!!", 0)
+        return b"".join(self._parts + trailer._parts)
+
+
+@dataclass
+class GuestTest:
+    name: str                    # shown in the log and the markers
+    binary: Path                 # on the host
+    args: list[str] = field(default_factory=list)
+
+
+def init_script(release: str, tests: list[GuestTest], env: dict[str, str], test_timeout_s: int,
+                modules: list[str], probe_only: bool) -> str:
+    q = shlex.quote
+    lines = [
+        "#!/bin/busybox sh",
+        "/bin/busybox --install -s /bin",
+        "export PATH=/bin HOME=/root TMPDIR=/tmp",
+        "mount -t proc proc /proc",
+        "mount -t sysfs sysfs /sys",
+        "mount -t devtmpfs devtmpfs /dev",
+        "dmesg -n 1  # keep kernel chatter off the console the host parses",
+        f'echo "{MARK} kernel $(uname -r)"',
+        f'die() {{ echo "{MARK} error $*"; poweroff -f; }}',
+    ]
+    if not probe_only:
+        for m in modules:
+            lines.append(f"insmod /lib/sculpt/{m}.ko || die 'insmod {m}.ko failed'")
+        lines += [
+            "[ -c /dev/uinput ] || die '/dev/uinput missing after insmod uinput.ko'",
+            "cd /tmp",
+        ]
+        for k, v in sorted(env.items()):
+            lines.append(f"export {k}={q(v)}")
+        for t in tests:
+            cmd = " ".join(q(a) for a in [f"/tests/{t.binary.name}", *t.args])
+            lines += [
+                f'echo "{MARK} begin {t.name}"',
+                # A hung test is killed here, so the rest of the suite still runs.
+                f"timeout -s KILL {test_timeout_s} {cmd} </dev/null 2>&1",
+                f'echo "{MARK} end {t.name} $?"',
+            ]
+    lines += [f'echo "{MARK} done"', "sync", "poweroff -f", ""]
+    return "\n".join(lines)
+
+
+def build(output: Path, release: str, module_files: dict[str, Path], tests: list[GuestTest],
+          env: dict[str, str] | None = None, test_timeout_s: int = 60, probe_only: bool = False) -> Path:
+    """Writes the initramfs to `output` and returns it."""
+    busybox = find_busybox()
+    if not busybox:
+        raise ImageError("busybox is not installed (Debian: apt-get install busybox-static)")
+    ldd = subprocess.run(["ldd", str(busybox)], capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    if not re.search(r"not a dynamic executable|statically linked", ldd.stdout + ldd.stderr):
+        raise ImageError(f"{busybox} is dynamically linked; the guest needs busybox-static")
+    a = Cpio()
+    for d in ("bin", "dev", "proc", "sys", "tmp", "root", "tests", "lib/sculpt"):
+        a.dir(d)
+    a.chardev("dev/console", 5, 1)   # the kernel opens it for /init's stdio
+    a.chardev("dev/null", 1, 3)
+    a.file("bin/busybox", busybox.read_bytes())
+    a.symlink("bin/sh", "busybox")
+    if not probe_only:
+        for name, path in module_files.items():
+            a.file(f"lib/sculpt/{name}.ko", path.read_bytes(), 0o644)
+        for t in tests:
+            if a.has(f"tests/{t.binary.name}"):
+                continue
+            a.file(f"tests/{t.binary.name}", t.binary.read_bytes())
+            for lib in shared_libraries(t.binary):
+                # At the path ldd printed (the loader resolves exactly those),
+                # with the content of whatever symlink chain it names.
+                a.file(str(lib), lib.resolve().read_bytes())
+    a.file("init", init_script(release, tests, env or {}, test_timeout_s, list(module_files),
+                               probe_only).encode())
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = output.with_suffix(".tmp")
+    tmp.write_bytes(a.bytes())
+    tmp.rename(output)
+    return output
