@@ -149,3 +149,7 @@ def choose_accel(cache_root: Path, qemu: str, vmlinux: Path, probe_initrd: Calla
     if m:
         return "kvm", m.group(1), about
     return "tcg", None, about
+
+
+def forget_verdict(cache_root: Path) -> None:
+    _verdict_file(cache_root).unlink(missing_ok=True)

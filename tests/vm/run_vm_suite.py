@@ -15,7 +15,10 @@ Environment:
   SCULPTD_VM_MODE=auto|host|vm   force where the tests run (default auto)
   SCULPTD_VM_ACCEL=kvm|tcg   bypass the cached KVM probe
   SCULPTD_VM_TEST_TIMEOUT=S  seconds one test binary may take (default 60,
-                             times --slowdown)
+                             times --slowdown); the guest kills it after that
+  SCULPTD_VM_SUITE_TIMEOUT=S seconds the whole boot may take before qemu is
+                             killed (default: 60 x slowdown for the boot plus
+                             each binary's allowance)
   SCULPTD_VM_REFRESH_KERNEL=1  look for a newer Debian kernel package
   XDG_CACHE_HOME             the kernel cache lives in $XDG_CACHE_HOME/sculptd
 Sanitizer (ASAN_OPTIONS, ...) and GTEST_* variables are passed to the guest.
@@ -119,15 +122,17 @@ class Reporter:
             return
         if self.running:
             # The binary died inside a test: that test failed, and says how.
-            how = why or (f"killed by signal {status - 128}" if status and status > 128 else f"exited {status}")
-            self.result(False, f"{b.name} {self.running}", f"{how} while running it", self.output[-60:])
+            how = why or describe(status)
+            if "while running" not in how:
+                how += " while running it"
+            self.result(False, f"{b.name} {self.running}", how, self.output[-60:])
             b.reported.add(self.running)
             self.running = None
         missing = [t for t in b.tests if t not in b.reported]
         for t in missing:
             self.result(False, f"{b.name} {t}", f"never ran{': ' + why if why else ''}")
         ok = status == 0 and not missing
-        reason = why or ("" if status == 0 else f"exit status {status}")
+        reason = why or ("" if status == 0 else describe(status))
         self.result(ok, f"{b.name} (whole binary: exit status, sanitizer reports)", reason if not ok else "")
         self.current = None
         self.ended.add(b.name)
@@ -139,6 +144,17 @@ class Reporter:
         for b in self.order:
             if b.name not in self.ended:
                 self.end(b.name, None, why)
+
+
+def describe(status: int | None) -> str:
+    """An exit status in words: the shell's 128+N and Python's -N both mean signal N."""
+    if status is None:
+        return "no exit status"
+    if status < 0:
+        return f"killed by signal {-status}"
+    if status > 128:
+        return f"killed by signal {status - 128}"
+    return f"exit status {status}"
 
 
 def list_tests(path: Path) -> list[str]:
@@ -205,7 +221,8 @@ def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Report
 
     rep = Reporter(binaries)
     boot_deadline = 60 * args.slowdown
-    total = boot_deadline + len(binaries) * (timeout_s + 5)
+    total = float(os.environ.get("SCULPTD_VM_SUITE_TIMEOUT") or
+                  boot_deadline + len(binaries) * (timeout_s + 5))
 
     def on_line(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -294,7 +311,7 @@ def main() -> int:
         return 1
 
     try:
-        binaries = [Binary(p.name, p.resolve(), list_tests(p)) for p in args.binaries]
+        binaries = [Binary(p.name, p.resolve(), list_tests(p.resolve())) for p in args.binaries]
     except (OSError, RuntimeError, subprocess.TimeoutExpired) as e:
         tap(f"Bail out! cannot list the tests: {e}")
         return 1

@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""Unit tests of the vm runner itself, with no VM and no uinput: the gtest
+output parser, the TAP it writes, deadlines on a hung binary, and the
+initramfs archive format. (The vm suite is the integration test.)"""
+
+import contextlib
+import io
+import os
+import stat
+import subprocess
+import sys
+import tempfile
+import textwrap
+import unittest
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import run_vm_suite as runner  # noqa: E402
+import initramfs  # noqa: E402  (put on sys.path by run_vm_suite)
+
+FAKE_GTEST = textwrap.dedent("""\
+    #!/bin/sh
+    # Mimics a gtest binary: lists two cases, then behaves as $FAKE says.
+    if [ "$1" = --gtest_list_tests ]; then
+      printf 'Suite.\\n  First\\n  Second\\nParam/P.\\n  Case/0  # GetParam() = 1\\n'
+      exit 0
+    fi
+    echo '[ RUN      ] Suite.First'
+    echo '[       OK ] Suite.First (1 ms)'
+    echo '[ RUN      ] Suite.Second'
+    case "$FAKE" in
+      hang) exec sleep 1000 ;;
+      crash) kill -SEGV $$ ;;
+      fail) echo 'x.cpp:3: Failure'; echo '[  FAILED  ] Suite.Second (2 ms)' ;;
+      *) echo '[       OK ] Suite.Second (0 ms)' ;;
+    esac
+    echo '[ RUN      ] Param/P.Case/0'
+    echo '[       OK ] Param/P.Case/0, where GetParam() = 1 (0 ms)'
+    echo '[  FAILED  ] Suite.Second'
+    [ "$FAKE" = fail ] && exit 1
+    exit 0
+    """)
+
+
+class RunnerTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.fake = Path(self.tmp.name) / "fake_test"
+        self.fake.write_text(FAKE_GTEST)
+        self.fake.chmod(self.fake.stat().st_mode | stat.S_IEXEC)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+        os.environ.pop("FAKE", None)
+
+    def run_host(self, scenario, timeout_s=30):
+        os.environ["FAKE"] = scenario
+        b = runner.Binary("fake_test", self.fake, runner.list_tests(self.fake))
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            rep = runner.run_on_host([b], timeout_s)
+        return rep, out.getvalue().splitlines()
+
+    def test_lists_cases_including_parameterised_ones(self):
+        self.assertEqual(runner.list_tests(self.fake), ["Suite.First", "Suite.Second", "Param/P.Case/0"])
+
+    def test_all_passing_gives_one_ok_per_case_plus_the_binary(self):
+        rep, tap = self.run_host("pass")
+        self.assertEqual(tap[0], "1..4")
+        self.assertEqual([l.split(" - ")[0] for l in tap[1:] if not l.startswith("#")],
+                         ["ok 1", "ok 2", "ok 3", "ok 4"])
+        self.assertEqual(rep.failures, 0)
+
+    def test_a_failure_is_reported_once_with_its_output(self):
+        rep, tap = self.run_host("fail")
+        self.assertIn("not ok 2 - fake_test Suite.Second", tap)
+        self.assertIn("# x.cpp:3: Failure", tap)
+        # gtest's closing summary repeats the name: not a second result.
+        self.assertEqual(sum(l.startswith(("ok", "not ok")) for l in tap), 4)
+        self.assertEqual(rep.failures, 2)   # the case and the binary's exit status
+
+    def test_a_crash_names_the_running_case_and_fails_the_rest(self):
+        rep, tap = self.run_host("crash")
+        self.assertIn("not ok 2 - fake_test Suite.Second # killed by signal 11 while running it", tap)
+        self.assertTrue(any(l.startswith("not ok 3 - fake_test Param/P.Case/0 # never ran") for l in tap), tap)
+        self.assertEqual(rep.failures, 3)
+
+    def test_a_hung_binary_is_killed_at_the_deadline(self):
+        rep, tap = self.run_host("hang", timeout_s=1)
+        self.assertIn("not ok 2 - fake_test Suite.Second # killed after 1 s while running it", tap)
+        self.assertGreaterEqual(rep.failures, 2)
+
+
+class InitramfsTest(unittest.TestCase):
+    def test_archive_lists_with_busybox_cpio(self):
+        busybox = initramfs.find_busybox()
+        if not busybox:
+            self.fail("busybox is not installed (apt-get install busybox-static)")
+        a = initramfs.Cpio()
+        a.file("tests/odd_size", b"12345")
+        a.symlink("bin/sh", "busybox")
+        a.chardev("dev/console", 5, 1)
+        with tempfile.NamedTemporaryFile() as f:
+            f.write(a.bytes())
+            f.flush()
+            listing = subprocess.run([str(busybox), "cpio", "-t", "-v", "-F", f.name],
+                                     capture_output=True, text=True, check=True).stdout
+        names = [line.split()[-1] if "->" not in line else line.split()[-3] for line in listing.splitlines()]
+        self.assertEqual(names, ["tests", "tests/odd_size", "bin", "bin/sh", "dev", "dev/console"])
+        self.assertIn("crw", listing)
+
+    def test_init_runs_every_test_under_a_timeout_with_quoted_env(self):
+        tests = [initramfs.GuestTest("a_test", Path("/x/a_test"), ["--gtest_color=no"])]
+        script = initramfs.init_script("6.1.0", tests, {"ASAN_OPTIONS": "a=1:b='2'"}, 42,
+                                       ["evdev", "uinput"], probe_only=False)
+        self.assertIn("insmod /lib/sculpt/evdev.ko", script)
+        self.assertIn("insmod /lib/sculpt/uinput.ko", script)
+        self.assertIn("timeout -s KILL 42 /tests/a_test --gtest_color=no", script)
+        self.assertIn("export ASAN_OPTIONS='a=1:b='\"'\"'2'\"'\"''", script)
+        self.assertLess(script.index("begin a_test"), script.index("end a_test"))
+        self.assertTrue(script.rstrip().endswith("poweroff -f"))
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
