@@ -1,0 +1,18 @@
+// sculptctl subcommands: one file each, each adding itself to the app. A new
+// command is a new file plus one line in main.cpp's list.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace sculpt::ctl {
+
+// `inspect FILE [--json]`: offline report of a mesh or scene file (inspect.cpp).
+void add_inspect_command(CLI::App& app);
+
+// Commands report failure by printing one line to stderr and throwing this;
+// main turns it into the exit status.
+struct CommandFailed {
+  int status = 1;
+};
+
+}  // namespace sculpt::ctl
