@@ -10,8 +10,10 @@
 
 #include <cerrno>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
 #include <system_error>
+#include <type_traits>
 
 namespace sculpt::support {
 namespace {
