@@ -26,7 +26,7 @@ struct MeshReport {
   std::size_t duplicates_dropped = 0;
   std::size_t unreferenced_dropped = 0;
   std::size_t skipped_primitives = 0;  // points and lines in the file: not part of a surface
-  std::size_t source_meshes = 0;       // meshes in the file, merged into this one
+  std::size_t source_meshes = 0;       // meshes merged into this one (as assimp groups them: by material)
 
   // V - E + F: 2 for a closed sphere-like surface, per component.
   long long euler_characteristic() const {

@@ -77,8 +77,7 @@ class Table {
     for (auto&& [key, node] : table_) {
       if (std::find(allowed_.begin(), allowed_.end(), key.str()) == allowed_.end()) {
         throw SceneError(file_, key.source().begin.line ? key.source().begin.line : line_of(node),
-                         fmt::format("{}unknown key '{}'{}", prefix(), key.str(),
-                                     did_you_mean(key.str(), allowed_)));
+                         fmt::format("{}unknown key '{}'{}", prefix(), key.str(), hint(key.str())));
       }
     }
   }
@@ -198,6 +197,15 @@ class Table {
   }
 
  private:
+  // A close match, or the whole list when it is short enough to read.
+  std::string hint(std::string_view key) const {
+    std::string h = did_you_mean(key, allowed_);
+    if (!h.empty() || allowed_.size() > 8) return h;
+    std::string list;
+    for (auto k : allowed_) list += (list.empty() ? "" : ", ") + std::string(k);
+    return " (allowed: " + list + ")";
+  }
+
   std::string prefix() const { return where_.empty() ? std::string() : where_ + " "; }
 
   const fs::path& file_;
