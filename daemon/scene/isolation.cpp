@@ -62,6 +62,9 @@ bool write_all(int fd, const void* data, std::size_t size) {
 [[noreturn]] void child_main(int out_fd, const std::function<std::vector<std::byte>()>& work,
                              const ChildLimits& limits) {
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  // A crash here is the importer's, reported by the parent: the process's
+  // own crash handlers (crash reporters, libFuzzer) must not run for it.
+  for (int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT}) ::signal(sig, SIG_DFL);
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
   const auto cpu_s = static_cast<rlim_t>(limits.timeout.count() / 1000 + 2);
