@@ -1,0 +1,246 @@
+#include "sim/body.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "sim/stability.hpp"
+
+namespace sculpt::sim {
+
+namespace {
+
+using kernel::kBlock;
+
+// 10 bits per axis, interleaved: nearby points get nearby codes.
+std::uint32_t spread_bits(std::uint32_t v) {
+  v &= 0x3ff;
+  v = (v | (v << 16)) & 0x030000ff;
+  v = (v | (v << 8)) & 0x0300f00f;
+  v = (v | (v << 4)) & 0x030c30c3;
+  v = (v | (v << 2)) & 0x09249249;
+  return v;
+}
+
+// The ELL width: wide enough that at most ~2% of vertices spill into the
+// (scalar) overflow list, never wider than 16.
+int choose_slots(const std::vector<int>& degree) {
+  if (degree.empty()) return 0;
+  std::vector<int> histogram(17, 0);
+  for (int d : degree) ++histogram[std::min(d, 16)];
+  const std::size_t allowed = degree.size() / 50;
+  std::size_t above = degree.size();
+  for (int k = 0; k <= 16; ++k) {
+    above -= histogram[k];
+    if (above <= allowed) return k;
+  }
+  return 16;
+}
+
+}  // namespace
+
+template <class S>
+std::size_t Body<S>::bytes() const {
+  std::size_t b = sizeof(*this);
+  for (const auto* buf : {&x, &y, &z, &wx, &wy, &wz, &rx, &ry, &rz, &ax, &ay, &az, &sx, &sy, &sz, &srx, &sry, &srz,
+                          &slen, &rest_length})
+    b += buf->bytes();
+  b += nbr.bytes();
+  b += overflow.capacity() * sizeof(overflow[0]) + overflow_begin.capacity() * 4;
+  b += (to_original.capacity() + to_internal.capacity()) * 4;
+  b += triangles.capacity() * sizeof(Triangle) + triangle_begin.capacity() * 4;
+  b += pinned.capacity() * sizeof(Pinned<S>) + pinned_begin.capacity() * 4;
+  b += (block_neighbour_begin.capacity() + block_neighbours.capacity() + awake_list.capacity()) * 4;
+  b += block.capacity() * sizeof(BlockState<S>);
+  for (const auto& t : tools) b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
+  return b;
+}
+
+template <class S>
+Body<S> make_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options, int tool_slots) {
+  validate(material);
+  const std::size_t n_in = mesh.positions.size();
+  if (n_in >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    throw std::invalid_argument("mesh: too many vertices (" + std::to_string(n_in) + ")");
+  for (std::size_t i = 0; i < n_in; ++i)
+    for (float c : mesh.positions[i])
+      if (!std::isfinite(c)) throw std::invalid_argument("mesh: vertex " + std::to_string(i) + " is not finite");
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (std::uint32_t v : mesh.triangles[t])
+      if (v >= n_in)
+        throw std::invalid_argument("mesh: triangle " + std::to_string(t) + " uses vertex " + std::to_string(v) +
+                                    " but there are only " + std::to_string(n_in) + " vertices");
+  for (std::uint32_t p : options.pinned)
+    if (p >= n_in) throw std::invalid_argument("mesh: pinned vertex " + std::to_string(p) + " does not exist");
+  if (options.max_grabbed < 0) throw std::invalid_argument("body: max_grabbed must be >= 0");
+
+  Body<S> b;
+  b.material = material;
+  b.plastic = material.plastic;
+  const std::uint32_t n = static_cast<std::uint32_t>(n_in);
+  b.n = n;
+  b.blocks = (n + kBlock - 1) / kBlock;
+
+  // --- Morton order of the rest shape ---------------------------------------
+  std::array<double, 3> lo{}, hi{};
+  if (n) {
+    lo = hi = {mesh.positions[0][0], mesh.positions[0][1], mesh.positions[0][2]};
+    for (const Vec3f& p : mesh.positions)
+      for (int k = 0; k < 3; ++k) lo[k] = std::min<double>(lo[k], p[k]), hi[k] = std::max<double>(hi[k], p[k]);
+  }
+  const double span = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
+  b.extent = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  std::vector<std::uint64_t> key(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    std::uint32_t code = 0;
+    for (int k = 0; k < 3; ++k) {
+      const auto q = static_cast<std::uint32_t>(std::clamp((mesh.positions[i][k] - lo[k]) / span * 1023.0, 0.0, 1023.0));
+      code |= spread_bits(q) << k;
+    }
+    key[i] = (std::uint64_t{code} << 32) | i;  // ties broken by index: deterministic
+  }
+  std::sort(key.begin(), key.end());
+  b.to_original.resize(n);
+  b.to_internal.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    b.to_original[i] = static_cast<std::uint32_t>(key[i] & 0xffffffffu);
+    b.to_internal[b.to_original[i]] = i;
+  }
+
+  // --- state arrays ----------------------------------------------------------
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz, &b.ax, &b.ay, &b.az, &b.sx, &b.sy,
+                    &b.sz})
+    buf->resize(n);
+  const bool stored_velocity = false;  // World fixes w for its integrator at attach time
+  (void)stored_velocity;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const Vec3f& p = mesh.positions[b.to_original[i]];
+    b.x[i] = b.wx[i] = b.rx[i] = b.sx[i] = static_cast<S>(p[0]);
+    b.y[i] = b.wy[i] = b.ry[i] = b.sy[i] = static_cast<S>(p[1]);
+    b.z[i] = b.wz[i] = b.rz[i] = b.sz[i] = static_cast<S>(p[2]);
+  }
+
+  // --- springs: ELL + overflow ------------------------------------------------
+  const std::vector<Edge> edges = unique_edges(mesh.triangles);
+  std::vector<std::vector<std::int32_t>> adj(n);
+  double edge_sum = 0;
+  for (const Edge& e : edges) {
+    const std::uint32_t a = b.to_internal[e.a], c = b.to_internal[e.b];
+    adj[a].push_back(static_cast<std::int32_t>(c));
+    adj[c].push_back(static_cast<std::int32_t>(a));
+    ++b.springs;
+    const double dx = double(b.rx[c]) - b.rx[a], dy = double(b.ry[c]) - b.ry[a], dz = double(b.rz[c]) - b.rz[a];
+    edge_sum += std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
+  b.mean_edge = static_cast<S>(edges.empty() ? b.extent : edge_sum / edges.size());
+  std::vector<int> degree(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    std::sort(adj[i].begin(), adj[i].end());  // fixed summation order
+    degree[i] = static_cast<int>(adj[i].size());
+    b.max_degree = std::max(b.max_degree, degree[i]);
+  }
+  b.slots = choose_slots(degree);
+  const bool spring_model = material.model == ForceModel::spring;
+  auto rest_len = [&](std::uint32_t i, std::int32_t j) {
+    const S dx = b.rx[j] - b.rx[i], dy = b.ry[j] - b.ry[i], dz = b.rz[j] - b.rz[i];
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
+  };
+  b.nbr.resize(static_cast<std::size_t>(b.slots) * n);
+  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n);
+  b.overflow_begin.assign(b.blocks + 1, 0);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    for (int s = 0; s < b.slots; ++s) {
+      const bool real = s < degree[i];
+      const std::int32_t j = real ? adj[i][s] : static_cast<std::int32_t>(i);  // padding: self, zero force
+      b.nbr[static_cast<std::size_t>(s) * n + i] = j;
+      if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = real ? rest_len(i, j) : S(0);
+    }
+    for (int s = b.slots; s < degree[i]; ++s) b.overflow.push_back({i, adj[i][s], rest_len(i, adj[i][s])});
+  }
+  for (const auto& o : b.overflow) ++b.overflow_begin[o.i / kBlock + 1];
+  std::partial_sum(b.overflow_begin.begin(), b.overflow_begin.end(), b.overflow_begin.begin());
+
+  // --- block neighbours -------------------------------------------------------
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> bpairs;
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::int32_t j : adj[i])
+      if (i / kBlock != static_cast<std::uint32_t>(j) / kBlock) bpairs.emplace_back(i / kBlock, j / kBlock);
+  std::sort(bpairs.begin(), bpairs.end());
+  bpairs.erase(std::unique(bpairs.begin(), bpairs.end()), bpairs.end());
+  b.block_neighbour_begin.assign(b.blocks + 1, 0);
+  for (const auto& [a, c] : bpairs) {
+    ++b.block_neighbour_begin[a + 1];
+    b.block_neighbours.push_back(c);
+  }
+  std::partial_sum(b.block_neighbour_begin.begin(), b.block_neighbour_begin.end(), b.block_neighbour_begin.begin());
+
+  // --- triangles, owned by the block of their lowest vertex -------------------
+  b.triangles.reserve(mesh.triangles.size());
+  for (const Triangle& t : mesh.triangles)
+    b.triangles.push_back({b.to_internal[t[0]], b.to_internal[t[1]], b.to_internal[t[2]]});
+  auto owner = [](const Triangle& t) { return std::min({t[0], t[1], t[2]}) / kBlock; };
+  std::stable_sort(b.triangles.begin(), b.triangles.end(),
+                   [&](const Triangle& p, const Triangle& q) { return owner(p) < owner(q); });
+  b.triangle_begin.assign(b.blocks + 1, 0);
+  for (const Triangle& t : b.triangles) ++b.triangle_begin[owner(t) + 1];
+  std::partial_sum(b.triangle_begin.begin(), b.triangle_begin.end(), b.triangle_begin.begin());
+
+  // --- blocks -----------------------------------------------------------------
+  b.block.resize(b.blocks);
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
+    BlockState<S>& s = b.block[blk];
+    const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
+    s.lo = {b.x[b0], b.y[b0], b.z[b0]};
+    s.hi = s.lo;
+    for (std::uint32_t i = b0; i < b1; ++i) {
+      s.lo = {std::min(s.lo[0], b.x[i]), std::min(s.lo[1], b.y[i]), std::min(s.lo[2], b.z[i])};
+      s.hi = {std::max(s.hi[0], b.x[i]), std::max(s.hi[1], b.y[i]), std::max(s.hi[2], b.z[i])};
+    }
+    S reach = 0;
+    for (std::uint32_t t = b.triangle_begin[blk]; t < b.triangle_begin[blk + 1]; ++t)
+      for (int k = 0; k < 3; ++k)
+        reach = std::max(reach, rest_len(b.triangles[t][k], static_cast<std::int32_t>(b.triangles[t][(k + 1) % 3])));
+    s.reach = S(1.5) * reach;
+  }
+  b.awake_list.resize(b.blocks);
+
+  // --- pinned -----------------------------------------------------------------
+  for (std::uint32_t p : options.pinned) {
+    const std::uint32_t i = b.to_internal[p];
+    b.pinned.push_back({i, b.rx[i], b.ry[i], b.rz[i]});
+  }
+  std::sort(b.pinned.begin(), b.pinned.end(), [](const Pinned<S>& p, const Pinned<S>& q) { return p.i < q.i; });
+  b.pinned.erase(std::unique(b.pinned.begin(), b.pinned.end(),
+                             [](const Pinned<S>& p, const Pinned<S>& q) { return p.i == q.i; }),
+                 b.pinned.end());
+  b.pinned_begin.assign(b.blocks + 1, 0);
+  for (const auto& p : b.pinned) ++b.pinned_begin[p.i / kBlock + 1];
+  std::partial_sum(b.pinned_begin.begin(), b.pinned_begin.end(), b.pinned_begin.begin());
+
+  if (b.plastic) {
+    for (auto* buf : {&b.srx, &b.sry, &b.srz}) buf->resize(n);
+    for (std::uint32_t i = 0; i < n; ++i) b.srx[i] = b.rx[i], b.sry[i] = b.ry[i], b.srz[i] = b.rz[i];
+    if (spring_model) {
+      b.slen.resize(b.rest_length.size());
+      std::copy_n(b.rest_length.data(), b.rest_length.size(), b.slen.data());
+    }
+  }
+
+  b.tools.resize(static_cast<std::size_t>(std::max(0, tool_slots)));
+  for (auto& t : b.tools) {
+    t.candidates.resize(b.blocks);
+    t.grabs.resize(static_cast<std::size_t>(options.max_grabbed));
+  }
+  return b;
+}
+
+template struct Body<float>;
+template struct Body<double>;
+template Body<float> make_body(const TriangleMesh&, const Material&, const BodyOptions&, int);
+template Body<double> make_body(const TriangleMesh&, const Material&, const BodyOptions&, int);
+
+}  // namespace sculpt::sim

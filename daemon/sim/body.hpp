@@ -1,0 +1,122 @@
+// One mesh as a spring network, laid out for the kernels: vertices reordered
+// along a Morton curve (spatially compact blocks of kernel::kBlock vertices),
+// structure of arrays, 64-byte aligned, neighbours in a slot-major padded ELL
+// table with an overflow list. Everything is sized at construction; stepping
+// (in World) never allocates.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "sim/aligned_buffer.hpp"
+#include "sim/kernels.hpp"
+#include "sim/material.hpp"
+#include "sim/triangle_mesh.hpp"
+
+namespace sculpt::sim {
+
+struct BodyOptions {
+  std::vector<std::uint32_t> pinned;  // original vertex indices held at their rest position
+  int max_grabbed = 4096;             // per tool: vertices one grab can hold (preallocated)
+};
+
+template <class S>
+struct Pinned {
+  std::uint32_t i;  // internal index
+  S x, y, z;
+};
+
+template <class S>
+struct Grab {
+  std::uint32_t i;     // internal index
+  S ox, oy, oz;        // offset from the tool centre at the moment of the grab
+};
+
+template <class S>
+struct BlockState {
+  std::array<S, 3> lo{}, hi{};  // exact box of the block's vertices at the last refit
+  S grow = 0;                   // how far any vertex may have moved since that refit
+  S reach = 0;                  // longest rest edge of the block's triangles ×1.5: boxes grown by it cover them
+  double energy = 0;            // kinetic + potential at the end of the last tick it was awake
+  std::uint32_t max_speed2_bits = 0;  // this tick (float bits of |v|² max, as a monotone key)
+  int quiet_ticks = 0;
+  bool awake = false;
+  bool touched = false;   // a tool box reached it this tick (or it holds a grabbed vertex)
+  bool changed = false;   // integrated or pushed this tick
+  bool dirty = false;     // changed since the last good-state snapshot
+};
+
+// Per tool and body: candidate blocks this tick and the vertices a grab holds.
+template <class S>
+struct ToolContact {
+  std::vector<std::uint32_t> candidates;  // capacity = blocks
+  std::uint32_t candidate_count = 0;
+  std::vector<Grab<S>> grabs;             // capacity = BodyOptions::max_grabbed
+  std::uint32_t grab_count = 0;
+  bool grabbing = false;
+};
+
+template <class S>
+struct Body {
+  Material material;
+  bool plastic = false;
+  std::uint32_t n = 0;       // vertices
+  std::uint32_t blocks = 0;  // ceil(n / kBlock)
+  std::uint32_t springs = 0; // unique edges with two distinct ends
+  int slots = 0;             // ELL width
+  int max_degree = 0;
+  S mean_edge = 0;           // mean rest edge length (clay yield scale)
+  double extent = 0;         // rest bounding-box diagonal
+
+  std::vector<std::uint32_t> to_original;  // internal → original vertex index
+  std::vector<std::uint32_t> to_internal;  // original → internal
+
+  AlignedBuffer<S> x, y, z;     // positions
+  AlignedBuffer<S> wx, wy, wz;  // previous positions (position Verlet) or velocities
+  AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
+  AlignedBuffer<S> ax, ay, az;  // accelerations (between force and integrate passes)
+  AlignedBuffer<S> sx, sy, sz;  // last good positions (the blow-up guard restores these)
+  AlignedBuffer<S> srx, sry, srz, slen;  // clay only: last good rest shape
+
+  AlignedBuffer<std::int32_t> nbr;  // slots × n, slot-major
+  AlignedBuffer<S> rest_length;     // slots × n (spring model only)
+  std::vector<kernel::Overflow<S>> overflow;
+  std::vector<std::uint32_t> overflow_begin;  // blocks + 1
+
+  std::vector<Triangle> triangles;            // internal indices, grouped by owning block (lowest vertex)
+  std::vector<std::uint32_t> triangle_begin;  // blocks + 1
+  std::vector<Pinned<S>> pinned;              // sorted by index
+  std::vector<std::uint32_t> pinned_begin;    // blocks + 1
+  std::vector<std::uint32_t> block_neighbour_begin, block_neighbours;  // CSR of blocks sharing a spring
+
+  std::vector<BlockState<S>> block;
+  std::vector<std::uint32_t> awake_list;  // capacity = blocks
+  std::uint32_t awake_count = 0;
+  std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
+
+  std::vector<ToolContact<S>> tools;      // one per tool slot of the world
+
+  // Guard state.
+  double energy = 0;        // last measured total energy, J
+  double energy_ref = 0;    // the most energy tool input has put in since the mesh last slept
+  double energy_floor = 0;  // noise floor of the energy test
+  std::uint64_t blowups = 0;
+  int boost = 1;            // substep multiplier after a blow-up
+  int snapshot_age = 0;
+  bool external_input = false;  // set_state() touched it since the last tick
+
+  std::uint32_t begin_of(std::uint32_t b) const { return b * kernel::kBlock; }
+  std::uint32_t end_of(std::uint32_t b) const { return std::min(n, (b + 1) * kernel::kBlock); }
+  std::size_t bytes() const;  // everything this body owns
+};
+
+// Builds the network. Throws std::invalid_argument naming the bad input
+// (out-of-range triangle index, non-finite position, bad material...).
+template <class S>
+Body<S> make_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options, int tool_slots);
+
+extern template Body<float> make_body(const TriangleMesh&, const Material&, const BodyOptions&, int);
+extern template Body<double> make_body(const TriangleMesh&, const Material&, const BodyOptions&, int);
+
+}  // namespace sculpt::sim

@@ -1,0 +1,83 @@
+// The hot loops of a substep, over one block of consecutive (spatially
+// ordered) vertices: gather the spring forces by vertex (no scatter, so no
+// write conflicts and a fixed summation order), then integrate. Structure of
+// arrays, neighbours in a slot-major padded ELL table (slot s of vertex i at
+// nbr[s·stride + i]; padding points at i itself and has rest length 0, which
+// gives exactly zero force), rare high-degree extras in an overflow list.
+// Every loop is element-wise, so the AVX2 clone and the baseline x86-64 clone
+// perform the same IEEE operations in the same order: bit-identical results.
+#pragma once
+
+#include <cstdint>
+
+#include "sim/material.hpp"
+#include "sim/settings.hpp"
+
+namespace sculpt::sim::kernel {
+
+// Vertices per block: the unit of sleeping, broadphase and change logging.
+inline constexpr std::uint32_t kBlock = 128;
+
+template <class S>
+struct Overflow {
+  std::uint32_t i;  // the vertex whose row this extra neighbour belongs to
+  std::int32_t j;   // the neighbour
+  S rest_length;
+};
+
+// How the damper sees a vertex's velocity: position Verlet keeps the previous
+// position (v = (x − x_prev)/dt, a backward difference); the other integrators
+// keep the velocity itself.
+enum class Velocity { backward_difference, stored };
+
+template <class S>
+struct ForceArgs {
+  const S *x, *y, *z;     // positions
+  const S *wx, *wy, *wz;  // previous positions or velocities (see Velocity)
+  const S *rx, *ry, *rz;  // rest positions
+  const std::int32_t* nbr;
+  const S* rest_length;   // ELL rest lengths (spring model), same layout as nbr
+  std::uint32_t stride;
+  int slots;
+  const Overflow<S>* overflow;  // sorted by i
+  S stiffness, damping, anchor, anchor_damping;
+  S inv_mass, inv_dt;
+  S gravity_force[3];     // m·g, or 0
+  S *ax, *ay, *az;        // out: accelerations
+};
+
+template <class S>
+struct IntegrateArgs {
+  S *x, *y, *z;
+  S *wx, *wy, *wz;
+  const S *ax, *ay, *az;
+  S dt, inv_dt;
+};
+
+template <class S>
+struct BlockSums {
+  S sum_speed2 = 0;                   // Σ|v|² over the block
+  std::uint64_t max_speed2_bits = 0;  // bit pattern of max |v|²: NaN and inf compare above every finite value
+};
+
+// Accelerations of vertices [begin, end) (at most kBlock of them) and their
+// overflow entries [ob, oe); returns the block's potential energy (springs
+// counted half per end, anchor, gravity relative to rest).
+float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin, std::uint32_t end,
+             std::uint32_t ob, std::uint32_t oe);
+double forces(const ForceArgs<double>& a, ForceModel model, Velocity vel, std::uint32_t begin, std::uint32_t end,
+              std::uint32_t ob, std::uint32_t oe);
+
+// One step of the integrator on [begin, end). For velocity Verlet this is the
+// closing half kick; vv_open does the opening half kick and drift.
+BlockSums<float> integrate(const IntegrateArgs<float>& a, Integrator integrator, std::uint32_t begin,
+                           std::uint32_t end);
+BlockSums<double> integrate(const IntegrateArgs<double>& a, Integrator integrator, std::uint32_t begin,
+                            std::uint32_t end);
+void vv_open(const IntegrateArgs<float>& a, std::uint32_t begin, std::uint32_t end);
+void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t end);
+
+// Which clone the CPU runs ("avx2" or "default"), for the benchmark report.
+const char* active_clone();
+
+}  // namespace sculpt::sim::kernel

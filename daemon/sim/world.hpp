@@ -1,0 +1,125 @@
+// A scene's simulation: meshes (bodies), tools, one fixed tick at a time.
+//
+//   World<float> world(settings, /*tool_slots=*/2);
+//   world.add_body(mesh, material);           // setup: allocates, may throw
+//   world.step(tools);                        // real time: no allocation, no locks, no I/O
+//   world.feedback()[t].force;                // to the haptics
+//   world.changes();                          // vertex ranges that moved, to the viewers
+//
+// Deterministic: one thread, fixed iteration order, no reductions whose order
+// depends on anything but the data: same scene and tool inputs → same bits.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "sim/body.hpp"
+#include "sim/material.hpp"
+#include "sim/settings.hpp"
+#include "sim/tool.hpp"
+#include "sim/triangle_mesh.hpp"
+
+namespace sculpt::sim {
+
+// Vertices [begin, end) of a body, in the body's internal (spatial) order,
+// changed this tick; Body::to_original maps them back to the file's order.
+struct ChangeRange {
+  std::uint32_t body;
+  std::uint32_t begin;
+  std::uint32_t end;
+};
+
+struct TickStats {
+  std::uint64_t vertex_steps = 0;    // vertices integrated × substeps, this tick
+  std::uint32_t awake_blocks = 0;    // blocks integrated this tick
+  std::uint32_t awake_vertices = 0;
+  std::uint32_t candidate_blocks = 0;  // blocks the narrow phase looked at
+  std::uint32_t contacts = 0;
+  std::uint32_t blowups = 0;         // meshes restored this tick
+  std::uint64_t blowups_total = 0;
+  std::uint32_t ignored_tools = 0;   // tool inputs rejected this tick (non-finite, bad radius)
+};
+
+template <class S>
+class World {
+ public:
+  // Throws std::invalid_argument naming the bad setting.
+  explicit World(const SimSettings& settings, int tool_slots = 2);
+
+  // Setup (allocates). Throws std::invalid_argument on a bad mesh or material.
+  // Returns the body's index.
+  std::uint32_t add_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options = {});
+
+  // One tick of 1/rate_hz. tools[t] drives tool slot t; missing slots are inactive.
+  void step(std::span<const Tool> tools);
+
+  std::span<const ToolFeedback> feedback() const { return feedback_; }
+  const TickStats& stats() const { return stats_; }
+  std::span<const ChangeRange> changes() const { return {changes_.data(), change_count_}; }
+
+  std::size_t body_count() const { return bodies_.size(); }
+  const Body<S>& body(std::size_t i) const { return bodies_[i]; }
+  int substeps(std::size_t i) const;
+  const SimSettings& settings() const { return settings_; }
+  std::uint64_t tick() const { return tick_; }
+
+  // Positions in the mesh's original vertex order (out.size() == vertex count).
+  void positions(std::size_t body, std::span<Vec3f> out) const;
+  Vec3d position(std::size_t body, std::uint32_t original_index) const;
+  // Set a vertex's position and velocity (tests, scripted scenes); wakes it.
+  void set_state(std::size_t body, std::uint32_t original_index, const Vec3d& position, const Vec3d& velocity);
+  // Total energy of a body at the end of the last tick it was active, J.
+  double energy(std::size_t body) const { return bodies_[body].energy; }
+
+  // FNV-1a over the position bits of every body in original order.
+  std::uint64_t hash() const;
+  std::size_t bytes() const;
+
+ private:
+  struct ToolTrack {
+    bool active = false;
+    bool known = false;     // a pose from the previous tick exists
+    bool grab = false, grab_prev = false;
+    ToolShape shape = ToolShape::sphere;
+    S radius = 0;
+    Vec3d c0{}, c1{}, a0{}, a1{};  // centre and half axis at the start and end of the tick
+    std::array<S, 3> lo{}, hi{};   // swept box
+    std::uint32_t prev_contacts = 0;
+    Vec3d force{};                 // accumulated this tick
+    std::uint32_t contacts = 0;
+  };
+
+  void step_body(std::uint32_t bi);
+  void broadphase(Body<S>& b, std::uint32_t t);
+  void collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1, S dts);
+  void push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& delta, const std::array<S, 3>& normal,
+                   S tool_normal_speed, S dts, ToolTrack& tr);
+  void apply_pins(Body<S>& b, std::uint32_t blk);
+  void wake(Body<S>& b, std::uint32_t blk);
+  void sleep(Body<S>& b, std::uint32_t blk);
+  void refit(Body<S>& b, std::uint32_t blk);
+  void plastic_flow(Body<S>& b, std::uint32_t blk);
+  void snapshot(Body<S>& b, std::uint32_t blk);
+  void restore(Body<S>& b);
+  void update_box(Body<S>& b);
+
+  SimSettings settings_;
+  std::uint32_t tool_slots_;
+  std::vector<Body<S>> bodies_;
+  std::vector<int> base_substeps_;
+  std::vector<std::uint32_t> awake_total_;  // per body: blocks awake
+  std::vector<ToolTrack> tracks_;
+  std::vector<ToolFeedback> feedback_;
+  std::vector<ChangeRange> changes_;
+  std::size_t change_count_ = 0;
+  std::vector<double> pe_scratch_;  // per awake block, last substep's potential energy
+  TickStats stats_;
+  std::uint64_t tick_ = 0;
+  std::uint64_t blowups_total_ = 0;
+};
+
+extern template class World<float>;
+extern template class World<double>;
+
+}  // namespace sculpt::sim

@@ -1,0 +1,72 @@
+// Helpers shared by the simulation tests.
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "sim/shapes.hpp"
+#include "sim/world.hpp"
+
+namespace sculpt::sim::test {
+
+// A material with everything off but what a test turns on.
+inline Material bare(ForceModel model, double mass, double k) {
+  Material m;
+  m.model = model;
+  m.mass = mass;
+  m.stiffness = k;
+  m.damping = 0.0;
+  m.anchor = 0.0;
+  m.anchor_damping = 0.0;
+  m.grab_stiffness = 0.0;
+  return m;
+}
+
+// A straight chain 0..n+1 along x (spacing h); triangles {i, i+1, i+1}
+// contribute the one edge each. Ends are pinned by the caller.
+inline TriangleMesh chain(int free_masses, float h) {
+  TriangleMesh mesh;
+  for (int i = 0; i < free_masses + 2; ++i) mesh.positions.push_back({h * i, 0.0f, 0.0f});
+  for (std::uint32_t i = 0; i + 1 < mesh.positions.size(); ++i) mesh.triangles.push_back({i, i + 1, i + 1});
+  return mesh;
+}
+
+template <class S>
+bool all_finite(const World<S>& w) {
+  for (std::size_t b = 0; b < w.body_count(); ++b) {
+    std::vector<Vec3f> p(w.body(b).n);
+    w.positions(b, p);
+    for (const Vec3f& v : p)
+      if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) return false;
+  }
+  for (const ToolFeedback& f : w.feedback())
+    if (!std::isfinite(f.force[0]) || !std::isfinite(f.force[1]) || !std::isfinite(f.force[2]) ||
+        !std::isfinite(f.onset_impulse))
+      return false;
+  return true;
+}
+
+// Generalised winding number of a closed mesh around p (≈1 inside, ≈0 outside).
+inline double winding_number(const std::vector<Vec3f>& pos, const std::vector<Triangle>& tris, const Vec3d& p) {
+  double total = 0;
+  for (const Triangle& t : tris) {
+    double a[3], b[3], c[3];
+    for (int k = 0; k < 3; ++k) {
+      a[k] = pos[t[0]][k] - p[k];
+      b[k] = pos[t[1]][k] - p[k];
+      c[k] = pos[t[2]][k] - p[k];
+    }
+    const double la = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const double lb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+    const double lc = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    const double det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                       a[2] * (b[0] * c[1] - b[1] * c[0]);
+    const double ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    const double bc = b[0] * c[0] + b[1] * c[1] + b[2] * c[2];
+    const double ca = c[0] * a[0] + c[1] * a[1] + c[2] * a[2];
+    total += 2.0 * std::atan2(det, la * lb * lc + ab * lc + bc * la + ca * lb);
+  }
+  return total / (4.0 * M_PI);
+}
+
+}  // namespace sculpt::sim::test
