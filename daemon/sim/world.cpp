@@ -723,6 +723,12 @@ void World<S>::set_state(std::size_t bi, std::uint32_t original, const Vec3d& p,
 }
 
 template <class S>
+void World<S>::wake_all(std::size_t bi) {
+  Body<S>& b = bodies_[bi];
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) wake(b, blk);
+}
+
+template <class S>
 std::uint64_t World<S>::hash() const {
   std::uint64_t h = 1469598103934665603ull;
   auto mix = [&h](const void* p, std::size_t n) {

@@ -69,6 +69,8 @@ class World {
   Vec3d position(std::size_t body, std::uint32_t original_index) const;
   // Set a vertex's position and velocity (tests, scripted scenes); wakes it.
   void set_state(std::size_t body, std::uint32_t original_index, const Vec3d& position, const Vec3d& velocity);
+  // Wake every block of a body (benchmarks that measure the kernels on a whole mesh).
+  void wake_all(std::size_t body);
   // Total energy of a body at the end of the last tick it was active, J.
   double energy(std::size_t body) const { return bodies_[body].energy; }
 

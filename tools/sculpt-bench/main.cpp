@@ -1,0 +1,288 @@
+// sculpt-bench: numbers about the simulation, printed, never asserted.
+//
+//   sculpt-bench throughput [--mesh builtin:icosphere:7|builtin:torus:R:r:rings:sides|builtin:box:cells|FILE]
+//                           [--model spring|linear] [--precision float|double] [--tool none|sphere]
+//                           [--steps N] [--repeats R] [--impl both|fast|baseline] [--json]
+//
+// The fast path and the straightforward baseline run interleaved in one
+// process (the machine is shared and noisy: compare them side by side), each
+// repeat timed on its own; medians are reported.
+#include <sys/resource.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "scene/mesh_import.hpp"
+#include "sim/baseline.hpp"
+#include "sim/kernels.hpp"
+#include "sim/shapes.hpp"
+#include "sim/world.hpp"
+
+namespace {
+
+using namespace sculpt;
+using Clock = std::chrono::steady_clock;
+
+struct Options {
+  std::string mesh = "builtin:icosphere:7";
+  std::string model = "spring";
+  std::string precision = "float";
+  std::string tool = "sphere";
+  std::string impl = "both";
+  int steps = 100;
+  int repeats = 5;
+  bool json = false;
+};
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : s) {
+    if (c == sep) out.push_back(cur), cur.clear();
+    else cur += c;
+  }
+  out.push_back(cur);
+  return out;
+}
+
+sim::TriangleMesh load(const std::string& spec) {
+  if (spec.rfind("builtin:", 0) == 0) {
+    const auto p = split(spec.substr(8), ':');
+    try {
+      if (p[0] == "icosphere" && p.size() <= 2) return sim::make_icosphere(0.1f, p.size() > 1 ? std::stoi(p[1]) : 7);
+      if (p[0] == "torus" && (p.size() == 1 || p.size() == 5))
+        return p.size() == 1 ? sim::make_torus(0.1f, 0.03f, 512, 200)
+                             : sim::make_torus(std::stof(p[1]), std::stof(p[2]), std::stoi(p[3]), std::stoi(p[4]));
+      if (p[0] == "box" && p.size() <= 2) return sim::make_box_grid({0.2f, 0.1f, 0.2f}, p.size() > 1 ? std::stoi(p[1]) : 128);
+    } catch (const std::logic_error& e) {
+      throw std::invalid_argument("--mesh " + spec + ": " + e.what());
+    }
+    throw std::invalid_argument("--mesh " + spec +
+                                ": expected builtin:icosphere[:N], builtin:torus[:R:r:rings:sides] or builtin:box[:cells]");
+  }
+  return scene::load_mesh(spec).mesh;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+long peak_rss_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss * 1024L;
+}
+
+// Where the tool presses: above the highest vertex, a fraction of the mesh's size.
+struct Press {
+  sim::Vec3d top{};
+  double radius = 0.01, depth = 0.005;
+  explicit Press(const sim::TriangleMesh& mesh) {
+    double lo[3] = {1e30, 1e30, 1e30}, hi[3] = {-1e30, -1e30, -1e30};
+    std::size_t best = 0;
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+      for (int k = 0; k < 3; ++k) lo[k] = std::min<double>(lo[k], mesh.positions[i][k]), hi[k] = std::max<double>(hi[k], mesh.positions[i][k]);
+      if (mesh.positions[i][1] > mesh.positions[best][1]) best = i;
+    }
+    const double size = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    radius = 0.1 * size;
+    depth = 0.05 * size;
+    if (!mesh.positions.empty()) top = {mesh.positions[best][0], mesh.positions[best][1], mesh.positions[best][2]};
+  }
+  // Presses in over the first 50 ticks, then keeps working the surface.
+  sim::Tool at(long tick) const {
+    sim::Tool t;
+    t.radius = radius;
+    const double in = depth * std::min(1.0, tick / 50.0) * (1.0 + 0.2 * std::sin(tick * 0.05));
+    t.position = {top[0] + 0.3 * radius * std::sin(tick * 0.013), top[1] + radius - in, top[2]};
+    return t;
+  }
+};
+
+struct Run {
+  std::vector<double> seconds;
+  std::uint64_t vertex_steps = 0;
+};
+
+template <class S>
+nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& material, const Options& o,
+                        const Press& press, std::optional<sim::BaselineBody>* baseline, Run& base_run) {
+  // Kernel throughput: the whole mesh awake (sleeping off), a tool pressing in.
+  sim::SimSettings awake_settings;
+  awake_settings.sleep_speed = 0.0;
+  sim::World<S> world(awake_settings, 1);
+  world.add_body(mesh, material);
+  world.wake_all(0);
+  // The realistic scene: sleeping on, the tool sculpting one spot; and the same scene idle.
+  sim::World<S> sculpt(sim::SimSettings{}, 1);
+  sculpt.add_body(mesh, material);
+  sim::World<S> idle(sim::SimSettings{}, 1);
+  idle.add_body(mesh, material);
+
+  const bool tool = o.tool == "sphere";
+  long tick = 0, base_tick = 0;
+  auto warm = [&](auto& w, long& t) {
+    for (int n = 0; n < 50; ++n, ++t) {
+      const sim::Tool tl = press.at(t);
+      w.step({&tl, tool ? 1u : 0u});
+    }
+  };
+  warm(world, tick);
+  if (baseline && *baseline)
+    for (int n = 0; n < 50; ++n, ++base_tick) {
+      const sim::Tool tl = press.at(base_tick);
+      (*baseline)->step(tool ? &tl : nullptr);
+    }
+  Run fast;
+  for (int r = 0; r < o.repeats; ++r) {
+    if (o.impl != "baseline") {
+      const auto t0 = Clock::now();
+      for (int n = 0; n < o.steps; ++n, ++tick) {
+        const sim::Tool tl = press.at(tick);
+        world.step({&tl, tool ? 1u : 0u});
+        fast.vertex_steps += world.stats().vertex_steps;
+      }
+      fast.seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    if (baseline && *baseline) {
+      const auto t0 = Clock::now();
+      for (int n = 0; n < o.steps; ++n, ++base_tick) {
+        const sim::Tool tl = press.at(base_tick);
+        (*baseline)->step(tool ? &tl : nullptr);
+      }
+      base_run.seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      base_run.vertex_steps += std::uint64_t(o.steps) * (*baseline)->substeps() * mesh.positions.size();
+    }
+  }
+
+  // Sculpting with sleeping on, then idle (tool gone, everything asleep).
+  long sculpt_tick = 0;
+  warm(sculpt, sculpt_tick);
+  std::vector<double> sculpt_s, idle_s;
+  std::uint64_t sculpt_vs = 0;
+  for (int r = 0; r < o.repeats; ++r) {
+    auto t0 = Clock::now();
+    for (int n = 0; n < o.steps; ++n, ++sculpt_tick) {
+      const sim::Tool tl = press.at(sculpt_tick);
+      sculpt.step({&tl, 1});
+      sculpt_vs += sculpt.stats().vertex_steps;
+    }
+    sculpt_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+    t0 = Clock::now();
+    for (int n = 0; n < o.steps; ++n) idle.step({});
+    idle_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+
+  const double n = static_cast<double>(mesh.positions.size());
+  nlohmann::json j;
+  j["substeps"] = world.substeps(0);
+  j["clone"] = sim::kernel::active_clone();
+  if (!fast.seconds.empty()) {
+    const double per_step = median(fast.seconds) / o.steps;
+    j["ms_per_step"] = per_step * 1e3;
+    j["ns_per_vertex_step"] = per_step * 1e9 / (n * world.substeps(0));
+    j["blowups"] = world.stats().blowups_total;
+    j["memory_bytes"] = world.bytes();
+    j["bytes_per_vertex"] = world.bytes() / n;
+    const double sculpt_ms = median(sculpt_s) / o.steps * 1e3, idle_ms = median(idle_s) / o.steps * 1e3;
+    j["sculpting_with_sleep"] = {{"ms_per_step", sculpt_ms},
+                                 {"awake_fraction", sculpt_vs / (n * world.substeps(0) * o.steps * o.repeats)}};
+    j["idle"] = {{"ms_per_step", idle_ms}, {"fraction_of_sculpting", idle_ms / sculpt_ms},
+                 {"fraction_of_all_awake", idle_ms / (per_step * 1e3)}};
+  }
+  return j;
+}
+
+int throughput(const Options& o) {
+  if (o.steps < 1 || o.repeats < 1) throw std::invalid_argument("--steps and --repeats must be >= 1");
+  const sim::TriangleMesh mesh = load(o.mesh);
+  sim::Material material;
+  if (o.model == "linear") material.model = sim::ForceModel::linear;
+  else if (o.model != "spring") throw std::invalid_argument("--model must be spring or linear");
+  if (o.precision != "float" && o.precision != "double") throw std::invalid_argument("--precision must be float or double");
+  if (o.tool != "none" && o.tool != "sphere") throw std::invalid_argument("--tool must be none or sphere");
+  if (o.impl != "both" && o.impl != "fast" && o.impl != "baseline")
+    throw std::invalid_argument("--impl must be both, fast or baseline");
+  const Press press(mesh);
+
+  std::optional<sim::BaselineBody> baseline;
+  if (o.impl != "fast") baseline.emplace(mesh, material, sim::SimSettings{});
+  Run base_run;
+  nlohmann::json fast = o.precision == "double" ? run_fast<double>(mesh, material, o, press, &baseline, base_run)
+                                                : run_fast<float>(mesh, material, o, press, &baseline, base_run);
+
+  const double n = static_cast<double>(mesh.positions.size());
+  std::size_t springs = sim::unique_edges(mesh.triangles).size();
+  nlohmann::json out = {{"command", "throughput"},
+                        {"mesh", o.mesh},
+                        {"vertices", mesh.positions.size()},
+                        {"springs", springs},
+                        {"model", o.model},
+                        {"precision", o.precision},
+                        {"tool", o.tool},
+                        {"steps", o.steps},
+                        {"repeats", o.repeats},
+                        {"substeps", fast["substeps"]}};
+  if (o.impl != "baseline") {
+    for (const char* k : {"ns_per_vertex_step", "ms_per_step", "memory_bytes", "bytes_per_vertex", "clone", "blowups",
+                          "sculpting_with_sleep", "idle"})
+      out[k] = fast[k];
+  }
+  if (baseline) {
+    const double per_step = median(base_run.seconds) / o.steps;
+    nlohmann::json b = {{"ns_per_vertex_step", per_step * 1e9 / (n * baseline->substeps())},
+                        {"ms_per_step", per_step * 1e3},
+                        {"memory_bytes", baseline->bytes()},
+                        {"bytes_per_vertex", baseline->bytes() / n}};
+    if (o.impl == "baseline") {
+      for (auto& [k, v] : b.items()) out[k] = v;
+    } else {
+      out["baseline"] = b;
+      out["speedup_vs_baseline"] = b["ns_per_vertex_step"].get<double>() / out["ns_per_vertex_step"].get<double>();
+    }
+  }
+  out["peak_rss_bytes"] = peak_rss_bytes();
+  out["peak_rss_bytes_per_vertex"] = peak_rss_bytes() / n;
+  if (o.json) {
+    std::cout << out.dump() << std::endl;
+  } else {
+    std::cout << out.dump(2) << std::endl;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"sculpt-bench: simulation benchmarks (numbers, not pass/fail)"};
+  app.require_subcommand(1);
+  Options o;
+  CLI::App* tp = app.add_subcommand("throughput", "steps per second of one mesh under a pressing tool, fast vs baseline");
+  tp->add_option("--mesh", o.mesh, "builtin:icosphere[:N] | builtin:torus[:R:r:rings:sides] | builtin:box[:cells] | FILE");
+  tp->add_option("--model", o.model, "spring | linear");
+  tp->add_option("--precision", o.precision, "float | double");
+  tp->add_option("--tool", o.tool, "none | sphere");
+  tp->add_option("--steps", o.steps, "timed ticks per repeat");
+  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)");
+  tp->add_option("--impl", o.impl, "both | fast | baseline");
+  tp->add_flag("--json", o.json, "one JSON line");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (tp->parsed()) return throughput(o);
+  } catch (const std::exception& e) {
+    std::cerr << "sculpt-bench: " << e.what() << "\n";
+    return 2;
+  }
+  return 0;
+}
