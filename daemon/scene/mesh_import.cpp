@@ -13,6 +13,7 @@
 #include "scene/isolation.hpp"
 #include "scene/raw_blob.hpp"
 #include "scene/weld.hpp"
+#include "sim/shapes.hpp"
 
 namespace sculpt::scene {
 namespace fs = std::filesystem;
@@ -97,6 +98,13 @@ LoadedMesh clean_mesh(const sim::TriangleMesh& raw, const fs::path& name, const 
   out.report.skipped_primitives = skipped_primitives;
   out.report.source_meshes = source_meshes;
   measure(out.mesh, out.report);
+  // A closed, consistently wound surface with negative volume is inside out
+  // (a mirrored export): turn it, or every push would pull.
+  if (out.report.boundary_edges == 0 && out.report.nonmanifold_edges == 0 && out.report.inconsistent_edges == 0 &&
+      sim::signed_volume(out.mesh) < 0.0) {
+    for (sim::Triangle& t : out.mesh.triangles) std::swap(t[1], t[2]);
+    out.report.flipped = true;
+  }
   out.warnings = describe_problems(out.report);
   return out;
 }

@@ -42,6 +42,29 @@ void measure(const sim::TriangleMesh& mesh, MeshReport& r) {
   std::vector<char> used(mesh.positions.size(), 0);
   for (const sim::Triangle& t : mesh.triangles)
     for (std::uint32_t v : t) used[v] = 1;
+  // Winding: a consistently oriented surface uses each shared edge once in
+  // each direction. Key the directed edges by their undirected pair.
+  {
+    std::vector<std::uint64_t> directed;
+    directed.reserve(mesh.triangles.size() * 3);
+    for (const sim::Triangle& t : mesh.triangles) {
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+        if (a == b) continue;
+        const std::uint64_t lo = std::min(a, b), hi = std::max(a, b);
+        directed.push_back((lo << 33) | (hi << 1) | (a < b ? 1u : 0u));
+      }
+    }
+    std::sort(directed.begin(), directed.end());
+    r.inconsistent_edges = 0;
+    for (std::size_t i = 0; i + 1 < directed.size(); ++i) {
+      // Exactly two uses in the same direction: same key including the direction bit.
+      if (directed[i] == directed[i + 1] && (i + 2 >= directed.size() || directed[i + 2] >> 1 != directed[i] >> 1) &&
+          (i == 0 || directed[i - 1] >> 1 != directed[i] >> 1)) {
+        ++r.inconsistent_edges;
+      }
+    }
+  }
   r.components = 0;
   for (std::uint32_t v = 0; v < mesh.positions.size(); ++v)
     if (used[v] && sets.find(v) == v) ++r.components;
@@ -67,6 +90,12 @@ std::vector<std::string> describe_problems(const MeshReport& r) {
   if (r.nonmanifold_edges)
     w.push_back(fmt::format("{} non-manifold edges (shared by three or more triangles)",
                             r.nonmanifold_edges));
+  if (r.inconsistent_edges)
+    w.push_back(fmt::format("inconsistent winding on {} edges: inside and outside disagree there, pushes may "
+                            "pull",
+                            r.inconsistent_edges));
+  if (r.flipped)
+    w.push_back("the surface was inside out: its triangles were turned so that they face outwards");
   if (r.components > 1)
     w.push_back(fmt::format("{} separate pieces: they move independently", r.components));
   if (r.degenerate_dropped)

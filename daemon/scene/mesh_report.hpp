@@ -18,6 +18,7 @@ struct MeshReport {
   std::size_t boundary_edges = 0;      // used by one triangle: the mesh is open there
   std::size_t nonmanifold_edges = 0;   // used by three or more triangles
   std::size_t components = 0;          // pieces connected through edges
+  std::size_t inconsistent_edges = 0;  // two triangles run along it the same way: winding flips there
   std::array<float, 3> bbox_min{0, 0, 0};
   std::array<float, 3> bbox_max{0, 0, 0};
   // What the import repaired (see weld.hpp).
@@ -26,6 +27,7 @@ struct MeshReport {
   std::size_t duplicates_dropped = 0;
   std::size_t unreferenced_dropped = 0;
   std::size_t skipped_primitives = 0;  // points and lines in the file: not part of a surface
+  bool flipped = false;                // the closed surface was inside out and got turned
   std::size_t source_meshes = 0;       // meshes merged into this one (as assimp groups them: by material)
 
   // V - E + F: 2 for a closed sphere-like surface, per component.

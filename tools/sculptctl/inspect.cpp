@@ -69,8 +69,9 @@ void print_text(const Scene& s, const SceneMesh& m, const sim::SubstepChoice& su
              r.euler_characteristic());
   fmt::print("  bbox {} .. {}\n", fmt_vec(r.bbox_min), fmt_vec(r.bbox_max));
   fmt::print("  import: {} vertices welded away, {} degenerate and {} duplicate triangles dropped, "
-             "{} source meshes merged\n",
-             r.welded_away, r.degenerate_dropped, r.duplicates_dropped, r.source_meshes);
+             "{} source meshes merged{}\n",
+             r.welded_away, r.degenerate_dropped, r.duplicates_dropped, r.source_meshes,
+             r.flipped ? ", turned right side out" : "");
   fmt::print("  material {}: {} model, mass {} kg, stiffness {} N/m, damping {} N·s/m, anchor {} N/m{}\n",
              mat.name, model_name(mat.model), mat.mass, mat.stiffness, mat.damping, mat.anchor,
              mat.plastic ? fmt::format(", plastic (yield strain {})", mat.yield_strain) : std::string());
@@ -91,12 +92,22 @@ nlohmann::json to_json(const Scene& s, const SceneMesh& m, const sim::SubstepCho
       {"name", m.name},
       {"scene", is_scene(s.file.string()) ? s.file.string() : std::string()},
       {"material", m.material},
+      {"material_properties",
+       {{"model", model_name(s.material_of(m).model)},
+        {"mass", s.material_of(m).mass},
+        {"stiffness", s.material_of(m).stiffness},
+        {"damping", s.material_of(m).damping},
+        {"anchor", s.material_of(m).anchor},
+        {"plastic", s.material_of(m).plastic},
+        {"yield_strain", s.material_of(m).yield_strain}}},
       {"vertices", r.vertices},
       {"edges", r.edges},
       {"triangles", r.triangles},
       {"boundary_edges", r.boundary_edges},
       {"nonmanifold_edges", r.nonmanifold_edges},
       {"components", r.components},
+      {"inconsistent_edges", r.inconsistent_edges},
+      {"flipped", r.flipped},
       {"euler_characteristic", r.euler_characteristic()},
       {"bbox_min", r.bbox_min},
       {"bbox_max", r.bbox_max},

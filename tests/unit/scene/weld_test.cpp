@@ -134,3 +134,31 @@ TEST(MeshReport, CountsComponentsAndNonManifoldEdges) {
 
 }  // namespace
 }  // namespace sculpt::scene
+
+namespace sculpt::scene {
+namespace {
+
+TEST(CleanMesh, TurnsAnInsideOutSurface) {
+  sim::TriangleMesh m = sim::make_icosphere(1.0f, 1);
+  for (sim::Triangle& t : m.triangles) std::swap(t[0], t[1]);
+  ASSERT_LT(sim::signed_volume(m), 0.0);
+  const LoadedMesh out = clean_mesh(m, "inside_out.obj");
+  EXPECT_TRUE(out.report.flipped);
+  EXPECT_GT(sim::signed_volume(out.mesh), 0.0);
+  ASSERT_EQ(out.warnings.size(), 1u);
+  EXPECT_NE(out.warnings[0].find("inside out"), std::string::npos);
+  EXPECT_FALSE(clean_mesh(sim::make_icosphere(1.0f, 1), "fine.obj").report.flipped);
+}
+
+TEST(CleanMesh, ReportsInconsistentWinding) {
+  sim::TriangleMesh m = sim::make_icosphere(1.0f, 1);
+  std::swap(m.triangles[0][0], m.triangles[0][1]);  // one face turned: its 3 edges disagree
+  const LoadedMesh out = clean_mesh(m, "patchy.obj");
+  EXPECT_EQ(out.report.inconsistent_edges, 3u);
+  EXPECT_FALSE(out.report.flipped);
+  ASSERT_FALSE(out.warnings.empty());
+  EXPECT_NE(out.warnings[0].find("inconsistent winding on 3 edges"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace sculpt::scene
