@@ -7,6 +7,7 @@
 // child so that generating it does not count towards this process's peak RSS.
 #include <sys/resource.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <variant>
 
@@ -71,6 +72,21 @@ void BM_LoadBinaryStl1M(benchmark::State& state) {
 }
 BENCHMARK(BM_LoadBinaryStl1M)->ArgName("isolated")->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime()
     ->Iterations(1)->Repetitions(5)->ReportAggregatesOnly(true);
+
+// What isolation costs on a file too small for parsing to matter: the fork,
+// the memfd round trip and the wait.
+void BM_LoadSmallObj(benchmark::State& state) {
+  scene::ImportOptions options;
+  options.isolate = state.range(0) != 0;
+  const char* data = std::getenv("SCULPT_TEST_DATA");
+  const fs::path file = fs::path(data ? data : "tests/data") / "meshes" / "icosphere.obj";
+  for (auto _ : state) {
+    scene::LoadedMesh m = scene::load_mesh(file, options);
+    benchmark::DoNotOptimize(m.mesh.positions.data());
+  }
+}
+BENCHMARK(BM_LoadSmallObj)->ArgName("isolated")->Arg(1)->Arg(0)->Unit(benchmark::kMicrosecond)->UseRealTime()
+    ->Repetitions(5)->ReportAggregatesOnly(true);
 
 void BM_WeldSoup1M(benchmark::State& state) {
   const sim::TriangleMesh torus = sim::make_torus(0.1f, 0.03f, kRings, kSides);
