@@ -330,7 +330,7 @@ void apply_transform(sim::TriangleMesh& mesh, const MeshTransform& tf) {
   }
 }
 
-SceneMesh parse_mesh(const Table& t, std::size_t index, const std::map<std::string, sim::Material>& materials,
+SceneMesh parse_mesh(const Table& t, const std::map<std::string, sim::Material>& materials,
                      const SceneOptions& options) {
   SceneMesh m;
   m.line = t.line();
@@ -351,7 +351,6 @@ SceneMesh parse_mesh(const Table& t, std::size_t index, const std::map<std::stri
   }
   m.name = t.string("name", builtin ? shape : fs::path(m.source).stem().string());
   if (m.name.empty()) t.fail("name", "must not be empty");
-  (void)index;
 
   m.material = t.string("material", m.material);
   if (!materials.count(m.material)) {
@@ -525,7 +524,7 @@ Scene parse_scene(std::string_view text, const fs::path& file, const SceneOption
     for (std::size_t i = 0; i < meshes->size(); ++i) {
       const Table t(file, *meshes->get(i)->as_table(), fmt::format("[[mesh]] #{}", i + 1),
                     {"name", "file", "params", "material", "position", "rotation", "scale", "weld_tolerance"});
-      SceneMesh m = parse_mesh(t, i, scene.materials, options);
+      SceneMesh m = parse_mesh(t, scene.materials, options);
       if (!names.insert(m.name).second) {
         if (t.has("name")) t.fail("name", fmt::format("'{}' is already used by another mesh", m.name));
         for (int k = 2;; ++k) {  // a defaulted name: number it
@@ -563,6 +562,9 @@ Scene parse_scene(std::string_view text, const fs::path& file, const SceneOption
 
 Scene load_scene(const fs::path& file, const SceneOptions& options) {
   if (file == "builtin:default") return default_scene(options);
+  if (file.string().rfind("builtin:", 0) == 0) {
+    throw SceneError(file, 0, "no such built-in scene (there is builtin:default; builtin: shapes go in a [[mesh]])");
+  }
   std::error_code ec;
   const fs::file_status status = fs::status(file, ec);
   if (!fs::exists(status)) throw SceneError(file, 0, "no such file");

@@ -124,6 +124,8 @@ TEST(DefaultScene, IsBuiltInAndClosed) {
   EXPECT_TRUE(s.warnings.empty());
   // load_scene knows it by name too.
   EXPECT_EQ(load_scene("builtin:default").meshes.size(), 3u);
+  EXPECT_EQ(error_of<SceneError>([] { load_scene("builtin:torus"); }),
+            "builtin:torus: no such built-in scene (there is builtin:default; builtin: shapes go in a [[mesh]])");
 }
 
 TEST(SceneFile, MirroringScaleKeepsTrianglesOutward) {
