@@ -197,6 +197,11 @@ def main():
     node = {'translation': [1.0, 2.0, 3.0], 'rotation': [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)],
             'scale': [2.0, 2.0, 2.0]}
     write('meshes/cube_node_transform.gltf', gltf_embedded(cv, cf, node))
+    # The usual layout from Blender: JSON plus a .bin next to it, found relative to the .gltf.
+    doc, binary = gltf_parts(cv, cf, {'translation': [0.0, 0.0, -5.0]})
+    doc['buffers'][0]['uri'] = 'cube_external.bin'
+    write('meshes/cube_external.gltf', json.dumps(doc, indent=1) + '\n')
+    write('meshes/cube_external.bin', binary, 'wb')
 
     # Two cubes as two objects in one file: merged into one body, two components.
     two = ['# two unit cubes, 3 apart on x']

@@ -86,6 +86,14 @@ TEST(Import, GltfNodeTransformIsBaked) {
   }
 }
 
+TEST(Import, GltfWithAnExternalBufferFindsIt) {
+  const LoadedMesh m = load_mesh(mesh_file("cube_external.gltf"));
+  EXPECT_EQ(m.report.vertices, 8u);
+  EXPECT_EQ(m.report.boundary_edges, 0u);
+  EXPECT_NEAR(m.report.bbox_min[2], -5.5f, 1e-6);
+  EXPECT_NEAR(m.report.bbox_max[2], -4.5f, 1e-6);
+}
+
 TEST(Import, SeveralMeshesInOneFileBecomeOneBodyWithComponents) {
   const LoadedMesh m = load_mesh(mesh_file("two_cubes.obj"));
   EXPECT_EQ(m.report.vertices, 16u);
