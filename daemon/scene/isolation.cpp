@@ -1,6 +1,7 @@
 #include "scene/isolation.hpp"
 
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
@@ -65,6 +66,15 @@ bool write_all(int fd, const void* data, std::size_t size) {
   // A crash here is the importer's, reported by the parent: the process's
   // own crash handlers (crash reporters, libFuzzer) must not run for it.
   for (int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT}) ::signal(sig, SIG_DFL);
+  // The caller's signal mask (a daemon blocks signals for its signalfd) and
+  // real-time priority are inherited: an importer stuck in a loop must not
+  // ignore SIGXCPU nor starve the machine at SCHED_FIFO until the deadline.
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
+  const sched_param normal{};
+  ::sched_setscheduler(0, SCHED_OTHER, &normal);
+  ::setpriority(PRIO_PROCESS, 0, 10);
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
   const auto cpu_s = static_cast<rlim_t>(limits.timeout.count() / 1000 + 2);

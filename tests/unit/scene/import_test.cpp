@@ -1,5 +1,6 @@
 #include "scene/mesh_import.hpp"
 
+#include <pthread.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -199,6 +200,21 @@ TEST(Isolation, ACrashBecomesAFailure) {
     ::raise(SIGSEGV);
     return {};
   }, limits);
+  ASSERT_TRUE(std::holds_alternative<ChildFailure>(r));
+  EXPECT_NE(std::get<ChildFailure>(r).what.find("crashed (signal 11"), std::string::npos);
+}
+
+TEST(Isolation, TheCallersBlockedSignalsDoNotCarryOver) {
+  // A daemon blocks signals for its signalfd; the importer child must not inherit that.
+  sigset_t block, old;
+  sigemptyset(&block);
+  sigaddset(&block, SIGSEGV);
+  ASSERT_EQ(::pthread_sigmask(SIG_BLOCK, &block, &old), 0);
+  auto r = run_in_child([]() -> std::vector<std::byte> {
+    ::raise(SIGSEGV);  // stays pending (and the child returns normally) if SIGSEGV is still blocked
+    return {};
+  }, {});
+  ::pthread_sigmask(SIG_SETMASK, &old, nullptr);
   ASSERT_TRUE(std::holds_alternative<ChildFailure>(r));
   EXPECT_NE(std::get<ChildFailure>(r).what.find("crashed (signal 11"), std::string::npos);
 }
