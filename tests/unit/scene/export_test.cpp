@@ -1,6 +1,11 @@
 #include "scene/mesh_export.hpp"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <random>
 #include <cstring>
 #include <sstream>
 
@@ -147,6 +152,35 @@ TEST(Export, BadRequestsNameTheFile) {
   EXPECT_NE(error_of<ExportError>([&] { export_mesh(broken, dir / "nan.ply"); }).find("non-finite"),
             std::string::npos);
   EXPECT_FALSE(std::filesystem::exists(dir / "nan.ply"));
+}
+
+TEST(AtomicFile, AWriterKilledAtAnyMomentLeavesTheOldOrTheNewFile) {
+  TempDir dir;
+  const auto file = dir / "scene.stl";
+  const std::string old_bytes(1 << 20, 'o');
+  const std::string new_bytes(24 << 20, 'n');  // big enough that kills land mid-write
+  std::mt19937 rng(42);
+  int saw_old = 0, saw_new = 0;
+  for (int round = 0; round < 16; ++round) {
+    write_file_atomically(file, old_bytes);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      write_file_atomically(file, new_bytes);
+      ::_exit(0);
+    }
+    ::usleep(std::uniform_int_distribution<int>(0, 40000)(rng));
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, nullptr, 0);
+    const std::string now = testing::read_file(file);
+    ASSERT_TRUE(now == old_bytes || now == new_bytes) << "round " << round << ": " << now.size() << " bytes";
+    (now == old_bytes ? saw_old : saw_new)++;
+    // A killed writer may leave its temporary behind (never the target): clean up for the next round.
+    for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+      if (e.path() != file) std::filesystem::remove(e.path());
+  }
+  RecordProperty("old", saw_old);
+  RecordProperty("new", saw_new);
 }
 
 TEST(AtomicFile, WritesExactlyTheBytes) {
