@@ -78,6 +78,11 @@ struct Body {
   AlignedBuffer<S> ax, ay, az;  // accelerations (between force and integrate passes)
   AlignedBuffer<S> sx, sy, sz;  // last good positions (the blow-up guard restores these)
   AlignedBuffer<S> srx, sry, srz, slen;  // clay only: last good rest shape
+  // Float spring model: {x,y,z,0,vx,vy,vz,0} per vertex for the AVX2 gathers, double
+  // buffered so a block can be integrated right after its forces while later
+  // blocks still gather the old state from the other buffer.
+  AlignedBuffer<S> packed[2];
+  int packed_cur = 0;
 
   AlignedBuffer<std::int32_t> nbr;  // slots × n, slot-major
   AlignedBuffer<S> rest_length;     // slots × n (spring model only)

@@ -1,6 +1,9 @@
 #include "sim/kernels.hpp"
 
+#include <immintrin.h>
+
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -85,12 +88,19 @@ template <class S, ForceModel M>
   }
 }
 
-template <class S, ForceModel M, Velocity V>
-[[gnu::always_inline]] inline S forces_impl(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t end,
-                                            std::uint32_t ob, std::uint32_t oe) {
+// The force pass on one block, in pieces, so the AVX2 path below can swap in
+// its own neighbour loop and share everything else (same operations, same
+// order, same bits).
+template <class S>
+struct BlockScratch {
   alignas(64) S fx[kBlock], fy[kBlock], fz[kBlock], pe[kBlock];
   alignas(64) S vx[kBlock], vy[kBlock], vz[kBlock];
-  const std::uint32_t cnt = end - begin;
+};
+
+// Anchor, anchor damper and gravity; the block's own velocities.
+template <class S, Velocity V>
+[[gnu::always_inline]] inline void init_block(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
+                                              BlockScratch<S>& w) {
   const S* __restrict X = A.x;
   const S* __restrict Y = A.y;
   const S* __restrict Z = A.z;
@@ -100,10 +110,8 @@ template <class S, ForceModel M, Velocity V>
   const S* __restrict RX = A.rx;
   const S* __restrict RY = A.ry;
   const S* __restrict RZ = A.rz;
-  const S inv_dt = A.inv_dt, k = A.stiffness, c = A.damping, ka = A.anchor, ca = A.anchor_damping;
-  const S quarter_k = S(0.25) * k, half_ka = S(0.5) * ka;
+  const S inv_dt = A.inv_dt, ka = A.anchor, ca = A.anchor_damping, half_ka = S(0.5) * ka;
   const S gx = A.gravity_force[0], gy = A.gravity_force[1], gz = A.gravity_force[2];
-
   for (std::uint32_t i = 0; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
     S ux, uy, uz;
@@ -116,17 +124,31 @@ template <class S, ForceModel M, Velocity V>
       uy = WY[v];
       uz = WZ[v];
     }
-    vx[i] = ux;
-    vy[i] = uy;
-    vz[i] = uz;
+    w.vx[i] = ux;
+    w.vy[i] = uy;
+    w.vz[i] = uz;
     const S dx = RX[v] - X[v], dy = RY[v] - Y[v], dz = RZ[v] - Z[v];
-    fx[i] = ka * dx - ca * ux + gx;
-    fy[i] = ka * dy - ca * uy + gy;
-    fz[i] = ka * dz - ca * uz + gz;
+    w.fx[i] = ka * dx - ca * ux + gx;
+    w.fy[i] = ka * dy - ca * uy + gy;
+    w.fz[i] = ka * dz - ca * uz + gz;
     // Gravity's potential relative to rest: −m g·(x − r) = m g·(r − x).
-    pe[i] = half_ka * (dx * dx + dy * dy + dz * dz) + (gx * dx + gy * dy + gz * dz);
+    w.pe[i] = half_ka * (dx * dx + dy * dy + dz * dz) + (gx * dx + gy * dy + gz * dz);
   }
+}
 
+template <class S, ForceModel M, Velocity V>
+[[gnu::always_inline]] inline void slots_generic(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
+                                                 BlockScratch<S>& w) {
+  const S* __restrict X = A.x;
+  const S* __restrict Y = A.y;
+  const S* __restrict Z = A.z;
+  const S* __restrict WX = A.wx;
+  const S* __restrict WY = A.wy;
+  const S* __restrict WZ = A.wz;
+  const S* __restrict RX = A.rx;
+  const S* __restrict RY = A.ry;
+  const S* __restrict RZ = A.rz;
+  const S inv_dt = A.inv_dt, k = A.stiffness, c = A.damping, quarter_k = S(0.25) * k;
   for (int s = 0; s < A.slots; ++s) {
     const std::int32_t* __restrict nb = A.nbr + static_cast<std::size_t>(s) * A.stride + begin;
     const S* __restrict L = M == ForceModel::spring ? A.rest_length + static_cast<std::size_t>(s) * A.stride + begin
@@ -152,39 +174,78 @@ template <class S, ForceModel M, Velocity V>
       } else {
         len = L[i];
       }
-      pair_force<S, M>(X[j] - X[v], Y[j] - Y[v], Z[j] - Z[v], ujx - vx[i], ujy - vy[i], ujz - vz[i], erx, ery, erz,
-                       len, k, c, quarter_k, fx[i], fy[i], fz[i], pe[i]);
+      pair_force<S, M>(X[j] - X[v], Y[j] - Y[v], Z[j] - Z[v], ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], erx, ery,
+                       erz, len, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
     }
   }
+}
 
+// High-degree extras (scalar). FromPacked: neighbours from the packed buffer
+// (the fused pass has already overwritten x and w of earlier blocks).
+template <class S, ForceModel M, Velocity V, bool FromPacked>
+[[gnu::always_inline]] inline void overflow_block(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t ob,
+                                                  std::uint32_t oe, BlockScratch<S>& w) {
+  const S* __restrict X = A.x;
+  const S* __restrict Y = A.y;
+  const S* __restrict Z = A.z;
+  const S* __restrict WX = A.wx;
+  const S* __restrict WY = A.wy;
+  const S* __restrict WZ = A.wz;
+  const S* __restrict RX = A.rx;
+  const S* __restrict RY = A.ry;
+  const S* __restrict RZ = A.rz;
+  const S inv_dt = A.inv_dt, k = A.stiffness, c = A.damping, quarter_k = S(0.25) * k;
   for (std::uint32_t o = ob; o < oe; ++o) {
     const Overflow<S>& e = A.overflow[o];
     const std::uint32_t v = e.i, i = v - begin;
     const std::int32_t j = e.j;
-    S ujx, ujy, ujz;
-    if constexpr (V == Velocity::backward_difference) {
-      ujx = (X[j] - WX[j]) * inv_dt;
-      ujy = (Y[j] - WY[j]) * inv_dt;
-      ujz = (Z[j] - WZ[j]) * inv_dt;
+    S xj, yj, zj, ujx, ujy, ujz;
+    if constexpr (FromPacked) {
+      const S* q = A.packed + 8 * static_cast<std::size_t>(j);
+      xj = q[0], yj = q[1], zj = q[2], ujx = q[4], ujy = q[5], ujz = q[6];
     } else {
-      ujx = WX[j];
-      ujy = WY[j];
-      ujz = WZ[j];
+      xj = X[j], yj = Y[j], zj = Z[j];
+      if constexpr (V == Velocity::backward_difference) {
+        ujx = (X[j] - WX[j]) * inv_dt;
+        ujy = (Y[j] - WY[j]) * inv_dt;
+        ujz = (Z[j] - WZ[j]) * inv_dt;
+      } else {
+        ujx = WX[j];
+        ujy = WY[j];
+        ujz = WZ[j];
+      }
     }
-    pair_force<S, M>(X[j] - X[v], Y[j] - Y[v], Z[j] - Z[v], ujx - vx[i], ujy - vy[i], ujz - vz[i], RX[j] - RX[v],
-                     RY[j] - RY[v], RZ[j] - RZ[v], e.rest_length, k, c, quarter_k, fx[i], fy[i], fz[i], pe[i]);
+    pair_force<S, M>(xj - X[v], yj - Y[v], zj - Z[v], ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], RX[j] - RX[v],
+                     RY[j] - RY[v], RZ[j] - RZ[v], e.rest_length, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i],
+                     w.pe[i]);
   }
+}
 
+// Accelerations out; returns the block's energy.
+template <class S>
+[[gnu::always_inline]] inline S write_acc(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
+                                          BlockScratch<S>& w) {
   const S inv_m = A.inv_mass;
-  S* __restrict AX = A.ax;
-  S* __restrict AY = A.ay;
-  S* __restrict AZ = A.az;
+  S* __restrict AX = A.ax + begin;
+  S* __restrict AY = A.ay + begin;
+  S* __restrict AZ = A.az + begin;
   for (std::uint32_t i = 0; i < cnt; ++i) {
-    AX[begin + i] = fx[i] * inv_m;
-    AY[begin + i] = fy[i] * inv_m;
-    AZ[begin + i] = fz[i] * inv_m;
+    AX[i] = w.fx[i] * inv_m;
+    AY[i] = w.fy[i] * inv_m;
+    AZ[i] = w.fz[i] * inv_m;
   }
-  return sum8(pe, cnt);
+  return sum8(w.pe, cnt);
+}
+
+template <class S, ForceModel M, Velocity V>
+[[gnu::always_inline]] inline S forces_impl(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t end,
+                                            std::uint32_t ob, std::uint32_t oe) {
+  BlockScratch<S> w;
+  const std::uint32_t cnt = end - begin;
+  init_block<S, V>(A, begin, cnt, w);
+  slots_generic<S, M, V>(A, begin, cnt, w);
+  overflow_block<S, M, V, false>(A, begin, ob, oe, w);
+  return write_acc<S>(A, begin, cnt, w);
 }
 
 template <class S>
@@ -289,16 +350,232 @@ template <class S>
   }
 }
 
-}  // namespace
-
-SCULPT_CLONES float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin,
-                           std::uint32_t end, std::uint32_t ob, std::uint32_t oe) {
+SCULPT_CLONES float forces_portable(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin,
+                                    std::uint32_t end, std::uint32_t ob, std::uint32_t oe) {
   return dispatch_forces(a, model, vel, begin, end, ob, oe);
 }
+
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+// Eight neighbours' {a, b, c, _} quadruples at p[l] + off, as three lanes of 8.
+__attribute__((target("avx2"), always_inline)) inline void gather_lanes(const float* const* p, int off, __m256& ox,
+                                                                         __m256& oy, __m256& oz) {
+  const __m256 r0 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(p[0] + off)), _mm_load_ps(p[4] + off), 1);
+  const __m256 r1 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(p[1] + off)), _mm_load_ps(p[5] + off), 1);
+  const __m256 r2 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(p[2] + off)), _mm_load_ps(p[6] + off), 1);
+  const __m256 r3 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_load_ps(p[3] + off)), _mm_load_ps(p[7] + off), 1);
+  const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpacklo_ps(r2, r3);
+  const __m256 t2 = _mm256_unpackhi_ps(r0, r1), t3 = _mm256_unpackhi_ps(r2, r3);
+  ox = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0));
+  oy = _mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2));
+  oz = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
+}
+
+// The spring model's neighbour loop with AVX2 intrinsics: 8 vertices at a time,
+// each neighbour fetched as two 16-byte loads from the packed array and
+// transposed to x/y/z lanes. Every arithmetic step is the one pair_force()
+// does, in the same order, without fused multiply-adds: identical bits.
+__attribute__((target("avx2"), always_inline)) inline void slots_avx2(const ForceArgs<float>& A, std::uint32_t begin,
+                                                                       std::uint32_t cnt, BlockScratch<float>& w) {
+  const float* __restrict P = A.packed;
+  const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
+  const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(quarter_k);
+  const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
+  // Vertex groups outside, slots inside: the accumulators stay in registers
+  // and each vertex still sums its springs in slot order (same bits).
+  const std::size_t stride = A.stride;
+  const std::int32_t* __restrict nb0 = A.nbr + begin;
+  const float* __restrict L0 = A.rest_length + begin;
+  std::uint32_t i = 0;
+  for (; i + 8 <= cnt; i += 8) {
+    const std::uint32_t v = begin + i;
+    const __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
+    __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
+    __m256 pe = _mm256_load_ps(w.pe + i);
+    for (int s = 0; s < A.slots; ++s) {
+      const std::int32_t* nb = nb0 + s * stride + i;
+      const float* p[8];
+      for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[l]);
+      __m256 xj, yj, zj, vxj, vyj, vzj;
+      gather_lanes(p, 0, xj, yj, zj);
+      gather_lanes(p, 4, vxj, vyj, vzj);
+      const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
+      const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
+      const __m256 len = _mm256_sqrt_ps(
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+      const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
+      const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride + i));
+      const __m256 dvd =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
+      const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
+                                      _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
+      fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
+      fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
+      fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
+      pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
+    }
+    _mm256_store_ps(w.fx + i, fx);
+    _mm256_store_ps(w.fy + i, fy);
+    _mm256_store_ps(w.fz + i, fz);
+    _mm256_store_ps(w.pe + i, pe);
+  }
+  for (; i < cnt; ++i) {
+    const std::uint32_t v = begin + i;
+    for (int s = 0; s < A.slots; ++s) {
+      const float* pj = P + 8 * static_cast<std::size_t>(nb0[s * stride + i]);
+      pair_force<float, ForceModel::spring>(pj[0] - A.x[v], pj[1] - A.y[v], pj[2] - A.z[v], pj[4] - w.vx[i],
+                                            pj[5] - w.vy[i], pj[6] - w.vz[i], 0, 0, 0, L0[s * stride + i], k, c,
+                                            quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+    }
+  }
+}
+
+template <Velocity V>
+__attribute__((target("avx2"), always_inline)) inline void forces_avx2_block(const ForceArgs<float>& A,
+                                                                              std::uint32_t begin, std::uint32_t cnt,
+                                                                              std::uint32_t ob, std::uint32_t oe,
+                                                                              BlockScratch<float>& w) {
+  init_block<float, V>(A, begin, cnt, w);
+  slots_avx2(A, begin, cnt, w);
+  overflow_block<float, ForceModel::spring, V, true>(A, begin, ob, oe, w);
+}
+
+// Forces for one block with neighbours gathered from the packed buffer.
+__attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>& A, Velocity vel,
+                                                         std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                                         std::uint32_t oe) {
+  BlockScratch<float> w;
+  const std::uint32_t cnt = end - begin;
+  if (vel == Velocity::backward_difference)
+    forces_avx2_block<Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
+  else
+    forces_avx2_block<Velocity::stored>(A, begin, cnt, ob, oe, w);
+  return write_acc<float>(A, begin, cnt, w);
+}
+#endif
+
+std::atomic<bool> g_portable{false};
+
+}  // namespace
+
+void force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
+
+bool packed_path_active() {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2 && !g_portable.load(std::memory_order_relaxed);
+#else
+  return false;
+#endif
+}
+
+float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin, std::uint32_t end,
+             std::uint32_t ob, std::uint32_t oe) {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2 && a.packed && model == ForceModel::spring && !g_portable.load(std::memory_order_relaxed))
+    return forces_avx2_packed(a, vel, begin, end, ob, oe);
+#endif
+  return forces_portable(a, model, vel, begin, end, ob, oe);
+}
+
 SCULPT_CLONES double forces(const ForceArgs<double>& a, ForceModel model, Velocity vel, std::uint32_t begin,
                             std::uint32_t end, std::uint32_t ob, std::uint32_t oe) {
   return dispatch_forces(a, model, vel, begin, end, ob, oe);
 }
+
+void pack_one(const ForceArgs<float>& A, Velocity vel, float* packed, std::uint32_t i) {
+  float* q = packed + 8 * static_cast<std::size_t>(i);
+  q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i], q[3] = 0.0f;
+  if (vel == Velocity::backward_difference) {
+    q[4] = (A.x[i] - A.wx[i]) * A.inv_dt;
+    q[5] = (A.y[i] - A.wy[i]) * A.inv_dt;
+    q[6] = (A.z[i] - A.wz[i]) * A.inv_dt;
+  } else {
+    q[4] = A.wx[i], q[5] = A.wy[i], q[6] = A.wz[i];
+  }
+  q[7] = 0.0f;
+}
+
+namespace {
+
+template <Velocity V>
+[[gnu::always_inline]] inline void pack_loop(const ForceArgs<float>& A, float* __restrict packed, std::uint32_t begin,
+                                             std::uint32_t end) {
+  for (std::uint32_t i = begin; i < end; ++i) {
+    float* q = packed + 8 * static_cast<std::size_t>(i);
+    q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i], q[3] = 0.0f;
+    if constexpr (V == Velocity::backward_difference) {
+      q[4] = (A.x[i] - A.wx[i]) * A.inv_dt;
+      q[5] = (A.y[i] - A.wy[i]) * A.inv_dt;
+      q[6] = (A.z[i] - A.wz[i]) * A.inv_dt;
+    } else {
+      q[4] = A.wx[i], q[5] = A.wy[i], q[6] = A.wz[i];
+    }
+    q[7] = 0.0f;
+  }
+}
+
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+// Eight vertices at a time: six rows (x y z vx vy vz) and two zero rows,
+// transposed 8×8 into eight {x,y,z,0,vx,vy,vz,0} records.
+template <Velocity V>
+__attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float* __restrict packed,
+                                               std::uint32_t begin, std::uint32_t end) {
+  std::uint32_t i = begin;
+  const __m256 inv_dt = _mm256_set1_ps(A.inv_dt), zero = _mm256_setzero_ps();
+  for (; i + 8 <= end; i += 8) {
+    const __m256 x = _mm256_loadu_ps(A.x + i), y = _mm256_loadu_ps(A.y + i), z = _mm256_loadu_ps(A.z + i);
+    __m256 vx, vy, vz;
+    if constexpr (V == Velocity::backward_difference) {
+      vx = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_loadu_ps(A.wx + i)), inv_dt);
+      vy = _mm256_mul_ps(_mm256_sub_ps(y, _mm256_loadu_ps(A.wy + i)), inv_dt);
+      vz = _mm256_mul_ps(_mm256_sub_ps(z, _mm256_loadu_ps(A.wz + i)), inv_dt);
+    } else {
+      vx = _mm256_loadu_ps(A.wx + i), vy = _mm256_loadu_ps(A.wy + i), vz = _mm256_loadu_ps(A.wz + i);
+    }
+    // Rows a0..a3 = x y z 0 and b0..b3 = vx vy vz 0: 4×4 transposes per 128-bit lane.
+    const __m256 t0 = _mm256_unpacklo_ps(x, y), t1 = _mm256_unpackhi_ps(x, y);
+    const __m256 t2 = _mm256_unpacklo_ps(z, zero), t3 = _mm256_unpackhi_ps(z, zero);
+    const __m256 a0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));  // vertices 0,4
+    const __m256 a1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));  // 1,5
+    const __m256 a2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));  // 2,6
+    const __m256 a3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));  // 3,7
+    const __m256 u0 = _mm256_unpacklo_ps(vx, vy), u1 = _mm256_unpackhi_ps(vx, vy);
+    const __m256 u2 = _mm256_unpacklo_ps(vz, zero), u3 = _mm256_unpackhi_ps(vz, zero);
+    const __m256 b0 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0));
+    const __m256 b1 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2));
+    const __m256 b2 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0));
+    const __m256 b3 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2));
+    float* q = packed + 8 * static_cast<std::size_t>(i);
+    _mm256_store_ps(q + 0, _mm256_permute2f128_ps(a0, b0, 0x20));
+    _mm256_store_ps(q + 8, _mm256_permute2f128_ps(a1, b1, 0x20));
+    _mm256_store_ps(q + 16, _mm256_permute2f128_ps(a2, b2, 0x20));
+    _mm256_store_ps(q + 24, _mm256_permute2f128_ps(a3, b3, 0x20));
+    _mm256_store_ps(q + 32, _mm256_permute2f128_ps(a0, b0, 0x31));
+    _mm256_store_ps(q + 40, _mm256_permute2f128_ps(a1, b1, 0x31));
+    _mm256_store_ps(q + 48, _mm256_permute2f128_ps(a2, b2, 0x31));
+    _mm256_store_ps(q + 56, _mm256_permute2f128_ps(a3, b3, 0x31));
+  }
+  pack_loop<V>(A, packed, i, end);
+}
+#endif
+
+}  // namespace
+
+void pack(const ForceArgs<float>& A, Velocity vel, float* packed, std::uint32_t begin, std::uint32_t end) {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2) {
+    if (vel == Velocity::backward_difference) pack_avx2<Velocity::backward_difference>(A, packed, begin, end);
+    else pack_avx2<Velocity::stored>(A, packed, begin, end);
+    return;
+  }
+#endif
+  if (vel == Velocity::backward_difference) pack_loop<Velocity::backward_difference>(A, packed, begin, end);
+  else pack_loop<Velocity::stored>(A, packed, begin, end);
+}
+
 SCULPT_CLONES BlockSums<float> integrate(const IntegrateArgs<float>& a, Integrator integrator, std::uint32_t begin,
                                          std::uint32_t end) {
   return dispatch_integrate(a, integrator, begin, end);
@@ -309,6 +586,57 @@ SCULPT_CLONES BlockSums<double> integrate(const IntegrateArgs<double>& a, Integr
 }
 void vv_open(const IntegrateArgs<float>& a, std::uint32_t begin, std::uint32_t end) { vv_open_impl(a, begin, end); }
 void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t end) { vv_open_impl(a, begin, end); }
+
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+namespace {
+
+template <Velocity V, Integrator I>
+__attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<float>& A, const IntegrateArgs<float>& In,
+                                                            std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                                            std::uint32_t oe, float* packed_next, float& potential) {
+  BlockScratch<float> w;
+  const std::uint32_t cnt = end - begin;
+  forces_avx2_block<V>(A, begin, cnt, ob, oe, w);
+  potential = sum8(w.pe, cnt);
+  const float inv_m = A.inv_mass;
+  for (std::uint32_t i = 0; i < cnt; ++i) {  // the same a = f/m the acceleration buffer would hold
+    w.fx[i] = w.fx[i] * inv_m;
+    w.fy[i] = w.fy[i] * inv_m;
+    w.fz[i] = w.fz[i] * inv_m;
+  }
+  alignas(64) float sp[kBlock];
+  alignas(64) std::uint32_t bits[kBlock];
+  integrate_loop<float, I>(In.x + begin, In.y + begin, In.z + begin, In.wx + begin, In.wy + begin, In.wz + begin,
+                           w.fx, w.fy, w.fz, In.dt, In.inv_dt, cnt, sp);
+  std::memcpy(bits, sp, sizeof(float) * cnt);
+  std::uint32_t m = 0;
+  for (std::uint32_t i = 0; i < cnt; ++i) m = bits[i] > m ? bits[i] : m;
+  pack_avx2<V>(A, packed_next, begin, end);
+  return {sum8(sp, cnt), m};
+}
+
+}  // namespace
+#endif
+
+BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, Integrator integrator,
+                                  std::uint32_t begin, std::uint32_t end, std::uint32_t ob, std::uint32_t oe,
+                                  float* packed_next, float& potential) {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  if (integrator == Integrator::position_verlet)
+    return fused_avx2<Velocity::backward_difference, Integrator::position_verlet>(a, in, begin, end, ob, oe,
+                                                                                   packed_next, potential);
+  if (integrator == Integrator::symplectic_euler)
+    return fused_avx2<Velocity::stored, Integrator::symplectic_euler>(a, in, begin, end, ob, oe, packed_next,
+                                                                      potential);
+#endif
+  // Not reachable when packed_path_active(); keep it correct anyway (unfused order).
+  const Velocity vel =
+      integrator == Integrator::position_verlet ? Velocity::backward_difference : Velocity::stored;
+  potential = forces(a, ForceModel::spring, vel, begin, end, ob, oe);
+  const BlockSums<float> sums = integrate(in, integrator, begin, end);
+  pack(a, vel, packed_next, begin, end);
+  return sums;
+}
 
 const char* active_clone() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)

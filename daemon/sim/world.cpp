@@ -7,6 +7,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "sim/geometry.hpp"
 #include "sim/stability.hpp"
@@ -252,6 +253,24 @@ void World<S>::broadphase(Body<S>& b, std::uint32_t t) {
     }
 }
 
+// Keep the packed mirror of one vertex current (same formula as kernel::pack).
+template <class S>
+void World<S>::pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt) {
+  if (b.packed[0].empty()) return;
+  for (auto& buf : b.packed) {  // both: a sleeping or just-pushed vertex must read the same from either
+    S* q = buf.data() + 8 * static_cast<std::size_t>(i);
+    q[0] = b.x[i], q[1] = b.y[i], q[2] = b.z[i], q[3] = S(0);
+    if (settings_.integrator == Integrator::position_verlet) {
+      q[4] = (b.x[i] - b.wx[i]) * inv_dt;
+      q[5] = (b.y[i] - b.wy[i]) * inv_dt;
+      q[6] = (b.z[i] - b.wz[i]) * inv_dt;
+    } else {
+      q[4] = b.wx[i], q[5] = b.wy[i], q[6] = b.wz[i];
+    }
+    q[7] = S(0);
+  }
+}
+
 template <class S>
 void World<S>::apply_pins(Body<S>& b, std::uint32_t blk) {
   const bool verlet = settings_.integrator == Integrator::position_verlet;
@@ -285,6 +304,7 @@ void World<S>::push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& 
   } else {
     b.wx[i] = v[0], b.wy[i] = v[1], b.wz[i] = v[2];
   }
+  pack_vertex(b, i, S(1) / dts);
   // The force that produced this displacement in one substep, back on the tool.
   const double f = b.material.mass / (double(dts) * dts);
   tr.force[0] -= f * delta[0], tr.force[1] -= f * delta[1], tr.force[2] -= f * delta[2];
@@ -402,6 +422,7 @@ void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
     b.wy[i] = verlet ? b.y[i] : S(0);
     b.wz[i] = verlet ? b.z[i] : S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
+    pack_vertex(b, i, S(1));  // at rest: velocity 0 whatever the dt
   }
   s.awake = false;
   s.quiet_ticks = 0;
@@ -438,6 +459,7 @@ void World<S>::restore(Body<S>& b) {
     b.wy[i] = verlet ? b.y[i] : S(0);
     b.wz[i] = verlet ? b.z[i] : S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
+    pack_vertex(b, i, S(1));
   }
   if (b.plastic) {
     std::copy_n(b.srx.data(), b.n, b.rx.data());
@@ -551,6 +573,7 @@ void World<S>::step_body(std::uint32_t bi) {
   fa.inv_dt = S(1) / dts;
   for (int k = 0; k < 3; ++k) fa.gravity_force[k] = m.gravity ? static_cast<S>(m.mass * settings_.gravity[k]) : S(0);
   fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();
+  fa.packed = b.packed[0].empty() ? nullptr : b.packed[b.packed_cur].data();
   kernel::IntegrateArgs<S> ia{b.x.data(), b.y.data(), b.z.data(), b.wx.data(), b.wy.data(), b.wz.data(),
                               b.ax.data(), b.ay.data(), b.az.data(), dts, S(1) / dts};
   const kernel::Velocity vel = verlet ? kernel::Velocity::backward_difference : kernel::Velocity::stored;
@@ -559,6 +582,12 @@ void World<S>::step_body(std::uint32_t bi) {
   // Nothing a hand does moves a vertex at ten times the fastest tool: that is divergence.
   const S speed_limit2 = static_cast<S>(100.0 * settings_.max_tool_speed * settings_.max_tool_speed);
   bool finite = true;
+  bool grabbing = false;
+  for (std::uint32_t t = 0; t < tool_slots_; ++t) grabbing = grabbing || b.tools[t].grabbing;
+  // The fused single pass needs neighbours read from the packed buffer (AVX2
+  // path), forces before any kick (not velocity Verlet) and no grab springs.
+  const bool fused = !b.packed[0].empty() && m.model == ForceModel::spring && integ != Integrator::velocity_verlet &&
+                     !grabbing && kernel::packed_path_active();
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
@@ -567,36 +596,62 @@ void World<S>::step_body(std::uint32_t bi) {
         const std::uint32_t blk = b.awake_list[q];
         kernel::vv_open(ia, b.begin_of(blk), b.end_of(blk));
       }
-    for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-      const std::uint32_t blk = b.awake_list[q];
-      pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
-                                      b.overflow_begin[blk + 1]);
-    }
-    // Grabbed vertices follow the tool through a spring each; the tool feels the pull back.
-    for (std::uint32_t t = 0; t < tool_slots_; ++t) {
-      ToolContact<S>& tc = b.tools[t];
-      if (!tc.grabbing) continue;
-      ToolTrack& tr = tracks_[t];
-      const V3<S> c = lerp<S>(tr.c0, tr.c1, alpha0);
-      for (std::uint32_t g = 0; g < tc.grab_count; ++g) {
-        const Grab<S>& gr = tc.grabs[g];
-        const S fx = kg * (c[0] + gr.ox - b.x[gr.i]), fy = kg * (c[1] + gr.oy - b.y[gr.i]),
-                fz = kg * (c[2] + gr.oz - b.z[gr.i]);
-        b.ax[gr.i] += fx * inv_m, b.ay[gr.i] += fy * inv_m, b.az[gr.i] += fz * inv_m;
-        tr.force[0] -= double(fx) / nsub, tr.force[1] -= double(fy) / nsub, tr.force[2] -= double(fz) / nsub;
-      }
-      tr.contacts = std::max(tr.contacts, tc.grab_count);
-    }
-    for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-      const std::uint32_t blk = b.awake_list[q];
-      BlockState<S>& s = b.block[blk];
-      const kernel::BlockSums<S> sums = kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk));
+    auto account = [&](std::uint32_t q, const kernel::BlockSums<S>& sums) {
+      BlockState<S>& s = b.block[b.awake_list[q]];
       S v2;
       std::memcpy(&v2, &sums.max_speed2_bits, sizeof(S));
       if (!std::isfinite(v2) || v2 > speed_limit2) finite = false;
       const auto key = std::bit_cast<std::uint32_t>(static_cast<float>(std::isfinite(v2) ? v2 : S(0)));
       s.max_speed2_bits = std::max(s.max_speed2_bits, key);
       if (last) s.energy = pe_scratch_[q] + 0.5 * m.mass * double(sums.sum_speed2);
+    };
+    if (fused) {
+      // One pass per block while its data is in L1: forces (neighbours from the
+      // current packed buffer), integrate, then pack into the other buffer.
+      if constexpr (std::is_same_v<S, float>) {
+        fa.packed = b.packed[b.packed_cur].data();
+        float* next = b.packed[b.packed_cur ^ 1].data();
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
+          float potential = 0;
+          const kernel::BlockSums<float> sums = kernel::step_block_fused(
+              fa, ia, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
+          pe_scratch_[q] = potential;
+          account(q, sums);
+        }
+        b.packed_cur ^= 1;
+      }
+    } else {
+      if constexpr (std::is_same_v<S, float>) {
+        if (fa.packed)
+          for (std::uint32_t q = 0; q < b.awake_count; ++q)
+            kernel::pack(fa, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
+                         b.end_of(b.awake_list[q]));
+      }
+      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+        const std::uint32_t blk = b.awake_list[q];
+        pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
+                                        b.overflow_begin[blk + 1]);
+      }
+      // Grabbed vertices follow the tool through a spring each; the tool feels the pull back.
+      for (std::uint32_t t = 0; t < tool_slots_; ++t) {
+        ToolContact<S>& tc = b.tools[t];
+        if (!tc.grabbing) continue;
+        ToolTrack& tr = tracks_[t];
+        const V3<S> c = lerp<S>(tr.c0, tr.c1, alpha0);
+        for (std::uint32_t g = 0; g < tc.grab_count; ++g) {
+          const Grab<S>& gr = tc.grabs[g];
+          const S fx = kg * (c[0] + gr.ox - b.x[gr.i]), fy = kg * (c[1] + gr.oy - b.y[gr.i]),
+                  fz = kg * (c[2] + gr.oz - b.z[gr.i]);
+          b.ax[gr.i] += fx * inv_m, b.ay[gr.i] += fy * inv_m, b.az[gr.i] += fz * inv_m;
+          tr.force[0] -= double(fx) / nsub, tr.force[1] -= double(fy) / nsub, tr.force[2] -= double(fz) / nsub;
+        }
+        tr.contacts = std::max(tr.contacts, tc.grab_count);
+      }
+      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+        const std::uint32_t blk = b.awake_list[q];
+        account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
+      }
     }
     for (std::uint32_t t = 0; t < tool_slots_; ++t) {
       ToolContact<S>& tc = b.tools[t];
@@ -608,6 +663,12 @@ void World<S>::step_body(std::uint32_t bi) {
     }
     if (!b.pinned.empty())
       for (std::uint32_t q = 0; q < b.awake_count; ++q) apply_pins(b, b.awake_list[q]);
+  }
+  if constexpr (std::is_same_v<S, float>) {
+    // Leave the packed buffer matching x and w, as the next fused tick expects.
+    if (!fused && !b.packed[0].empty())
+      for (std::uint32_t q = 0; q < b.awake_count; ++q)
+        kernel::pack(fa, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]), b.end_of(b.awake_list[q]));
   }
   for (std::uint32_t q = 0; q < b.awake_count; ++q) {
     const std::uint32_t blk = b.awake_list[q];
@@ -715,6 +776,7 @@ void World<S>::set_state(std::size_t bi, std::uint32_t original, const Vec3d& p,
   } else {
     b.wx[k] = static_cast<S>(v[0]), b.wy[k] = static_cast<S>(v[1]), b.wz[k] = static_cast<S>(v[2]);
   }
+  pack_vertex(b, k, static_cast<S>(1.0 / dts));
   const std::uint32_t blk = k / kBlock;
   wake(b, blk);
   b.block[blk].grow += static_cast<S>(norm({p[0] - b.rx[k], p[1] - b.ry[k], p[2] - b.rz[k]}));

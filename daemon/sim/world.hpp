@@ -98,6 +98,7 @@ class World {
   void push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& delta, const std::array<S, 3>& normal,
                    S tool_normal_speed, S dts, ToolTrack& tr);
   void apply_pins(Body<S>& b, std::uint32_t blk);
+  void pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt);
   void wake(Body<S>& b, std::uint32_t blk);
   void sleep(Body<S>& b, std::uint32_t blk);
   void refit(Body<S>& b, std::uint32_t blk);

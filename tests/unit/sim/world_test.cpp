@@ -273,6 +273,16 @@ std::uint64_t scripted_run(Integrator integrator) {
   clay.plastic = true;
   w.add_body(make_icosphere(0.1f, 4), clay);
   w.add_body(make_torus(0.1f, 0.03f, 48, 24), Material{});
+  // A cone whose apex has degree 40: the ELL overflow path.
+  TriangleMesh cone;
+  cone.positions.push_back({0.0f, 0.15f, 0.0f});
+  for (int k = 0; k < 40; ++k) cone.positions.push_back({0.05f * std::cos(k * 0.157f), 0.1f, 0.05f * std::sin(k * 0.157f)});
+  cone.positions.push_back({0.0f, 0.1f, 0.0f});
+  for (std::uint32_t k = 1; k <= 40; ++k) {
+    cone.triangles.push_back({0, k % 40 + 1, k});
+    cone.triangles.push_back({41, k, k % 40 + 1});
+  }
+  w.add_body(cone, Material{});
   Tool a, b;
   a.radius = 0.02;
   b.shape = ToolShape::capsule;
@@ -295,6 +305,17 @@ TEST(Determinism, SameInputsSameBits) {
   }
   EXPECT_NE(scripted_run(Integrator::position_verlet), scripted_run(Integrator::symplectic_euler))
       << "the hash sees the positions";
+}
+
+// The AVX2 packed-gather path and the portable kernels (target clones) do the
+// same IEEE operations in the same order: identical bits, not just close.
+TEST(Determinism, Avx2PathMatchesPortableKernels) {
+  kernel::force_portable(true);
+  const std::uint64_t portable = scripted_run(Integrator::position_verlet);
+  const std::uint64_t portable_se = scripted_run(Integrator::symplectic_euler);
+  kernel::force_portable(false);
+  EXPECT_EQ(portable, scripted_run(Integrator::position_verlet));
+  EXPECT_EQ(portable_se, scripted_run(Integrator::symplectic_euler));
 }
 
 TEST(Integrators, AllThreeAgreeOnAPress) {
