@@ -1,0 +1,92 @@
+// Microbenchmarks of the simulation core (meson test --benchmark). Numbers
+// only; nothing here passes or fails on speed.
+#include <benchmark/benchmark.h>
+
+#include "sim/baseline.hpp"
+#include "sim/kernels.hpp"
+#include "sim/shapes.hpp"
+#include "sim/world.hpp"
+
+namespace {
+
+using namespace sculpt::sim;
+
+Tool pressing(long tick) {
+  Tool t;
+  t.radius = 0.02;
+  t.position = {0.0, 0.115 - 0.01 * std::min(tick, 50L) / 50.0, 0.0};
+  return t;
+}
+
+// Every vertex awake (sleeping off), a tool pressing: kernel throughput.
+template <class S>
+void BM_StepAllAwake(benchmark::State& state) {
+  SimSettings s;
+  s.sleep_speed = 0.0;
+  World<S> w(s, 1);
+  const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
+  w.add_body(mesh, Material{});
+  w.wake_all(0);
+  kernel::force_portable(state.range(1) != 0);
+  long tick = 0;
+  for (auto _ : state) {
+    const Tool t = pressing(tick++);
+    w.step({&t, 1});
+  }
+  kernel::force_portable(false);
+  state.counters["vertices"] = static_cast<double>(mesh.positions.size());
+  state.counters["ns_per_vertex_step"] = benchmark::Counter(
+      static_cast<double>(state.iterations()) * mesh.positions.size() * w.substeps(0),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.SetLabel(state.range(1) ? "portable" : "auto");
+}
+BENCHMARK_TEMPLATE(BM_StepAllAwake, float)->Args({5, 0})->Args({5, 1})->Args({7, 0})->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(BM_StepAllAwake, double)->Args({5, 0})->Unit(benchmark::kMillisecond);
+
+void BM_StepBaseline(benchmark::State& state) {
+  const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
+  BaselineBody b(mesh, Material{}, SimSettings{});
+  long tick = 0;
+  for (auto _ : state) {
+    const Tool t = pressing(tick++);
+    b.step(&t);
+  }
+  state.counters["ns_per_vertex_step"] = benchmark::Counter(
+      static_cast<double>(state.iterations()) * mesh.positions.size() * b.substeps(),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_StepBaseline)->Arg(5)->Arg(7)->Unit(benchmark::kMillisecond);
+
+// The realistic tick: sleeping on, one tool sculpting one spot.
+void BM_StepSculpting(benchmark::State& state) {
+  World<float> w(SimSettings{}, 1);
+  w.add_body(make_icosphere(0.1f, static_cast<int>(state.range(0))), Material{});
+  long tick = 0;
+  for (auto _ : state) {
+    const Tool t = pressing(tick++);
+    w.step({&t, 1});
+  }
+}
+BENCHMARK(BM_StepSculpting)->Arg(7)->Unit(benchmark::kMicrosecond);
+
+// Nothing touches the scene: everything sleeps.
+void BM_StepIdle(benchmark::State& state) {
+  World<float> w(SimSettings{}, 2);
+  w.add_body(make_icosphere(0.1f, 7), Material{});
+  w.add_body(make_torus(0.3f, 0.05f, 256, 64), Material{});
+  for (auto _ : state) w.step({});
+}
+BENCHMARK(BM_StepIdle)->Unit(benchmark::kNanosecond);
+
+void BM_BuildBody(benchmark::State& state) {
+  const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    World<float> w(SimSettings{}, 1);
+    benchmark::DoNotOptimize(w.add_body(mesh, Material{}));
+  }
+}
+BENCHMARK(BM_BuildBody)->Arg(6)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
