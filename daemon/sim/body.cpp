@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -133,22 +134,35 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   // --- springs: ELL + overflow ------------------------------------------------
-  const std::vector<Edge> edges = unique_edges(mesh.triangles);
-  std::vector<std::vector<std::int32_t>> adj(n);
+  // Adjacency as a temporary CSR (a vector per vertex would double the peak
+  // memory of building a big mesh).
+  struct Csr {
+    std::vector<std::uint32_t> off;
+    std::vector<std::int32_t> nb;
+    std::span<const std::int32_t> operator[](std::uint32_t i) const { return {nb.data() + off[i], nb.data() + off[i + 1]}; }
+  } adj;
   double edge_sum = 0;
-  for (const Edge& e : edges) {
-    const std::uint32_t a = b.to_internal[e.a], c = b.to_internal[e.b];
-    adj[a].push_back(static_cast<std::int32_t>(c));
-    adj[c].push_back(static_cast<std::int32_t>(a));
-    ++b.springs;
-    const double dx = double(b.rx[c]) - b.rx[a], dy = double(b.ry[c]) - b.ry[a], dz = double(b.rz[c]) - b.rz[a];
-    edge_sum += std::sqrt(dx * dx + dy * dy + dz * dz);
+  {
+    const std::vector<Edge> edges = unique_edges(mesh.triangles);
+    adj.off.assign(n + 1, 0);
+    for (const Edge& e : edges) ++adj.off[b.to_internal[e.a] + 1], ++adj.off[b.to_internal[e.b] + 1];
+    std::partial_sum(adj.off.begin(), adj.off.end(), adj.off.begin());
+    adj.nb.resize(adj.off[n]);
+    std::vector<std::uint32_t> cursor(adj.off.begin(), adj.off.end() - 1);
+    for (const Edge& e : edges) {
+      const std::uint32_t a = b.to_internal[e.a], c = b.to_internal[e.b];
+      adj.nb[cursor[a]++] = static_cast<std::int32_t>(c);
+      adj.nb[cursor[c]++] = static_cast<std::int32_t>(a);
+      ++b.springs;
+      const double dx = double(b.rx[c]) - b.rx[a], dy = double(b.ry[c]) - b.ry[a], dz = double(b.rz[c]) - b.rz[a];
+      edge_sum += std::sqrt(dx * dx + dy * dy + dz * dz);
+    }
+    b.mean_edge = static_cast<S>(edges.empty() ? b.extent : edge_sum / edges.size());
   }
-  b.mean_edge = static_cast<S>(edges.empty() ? b.extent : edge_sum / edges.size());
   std::vector<int> degree(n);
   for (std::uint32_t i = 0; i < n; ++i) {
-    std::sort(adj[i].begin(), adj[i].end());  // fixed summation order
-    degree[i] = static_cast<int>(adj[i].size());
+    std::sort(adj.nb.begin() + adj.off[i], adj.nb.begin() + adj.off[i + 1]);  // fixed summation order
+    degree[i] = static_cast<int>(adj.off[i + 1] - adj.off[i]);
     b.max_degree = std::max(b.max_degree, degree[i]);
   }
   b.slots = choose_slots(degree);
