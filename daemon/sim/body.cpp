@@ -253,11 +253,11 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   if constexpr (std::is_same_v<S, float>) {
-    if (spring_model && n <= kPackedMaxVertices) {
+    if (n <= kPackedMaxVertices) {
       for (auto& buf : b.packed) {
-        buf.resize(8 * static_cast<std::size_t>(n));
-        for (std::uint32_t i = 0; i < n; ++i)  // at rest: velocity 0
-          buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
+        buf.resize(8 * static_cast<std::size_t>(n));  // zeros: at rest the velocity and (linear) u are 0
+        if (spring_model)
+          for (std::uint32_t i = 0; i < n; ++i) buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
       }
     }
   }

@@ -166,16 +166,19 @@ template <class S, ForceModel M, Velocity V>
         ujy = WY[j];
         ujz = WZ[j];
       }
-      S erx = 0, ery = 0, erz = 0, len = 0;
+      S dx, dy, dz, len = 0;
       if constexpr (M == ForceModel::linear) {
-        erx = RX[j] - RX[v];
-        ery = RY[j] - RY[v];
-        erz = RZ[j] - RZ[v];
+        // (p_j − p_i) − (r_j − r_i) written as u_j − u_i with u = p − r: what the
+        // packed path reads, so both paths round alike.
+        dx = (X[j] - RX[j]) - (X[v] - RX[v]);
+        dy = (Y[j] - RY[j]) - (Y[v] - RY[v]);
+        dz = (Z[j] - RZ[j]) - (Z[v] - RZ[v]);
       } else {
+        dx = X[j] - X[v], dy = Y[j] - Y[v], dz = Z[j] - Z[v];
         len = L[i];
       }
-      pair_force<S, M>(X[j] - X[v], Y[j] - Y[v], Z[j] - Z[v], ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], erx, ery,
-                       erz, len, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+      pair_force<S, M>(dx, dy, dz, ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, len, k, c, quarter_k, w.fx[i],
+                       w.fy[i], w.fz[i], w.pe[i]);
     }
   }
 }
@@ -215,9 +218,15 @@ template <class S, ForceModel M, Velocity V, bool FromPacked>
         ujz = WZ[j];
       }
     }
-    pair_force<S, M>(xj - X[v], yj - Y[v], zj - Z[v], ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], RX[j] - RX[v],
-                     RY[j] - RY[v], RZ[j] - RZ[v], e.rest_length, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i],
-                     w.pe[i]);
+    S dx, dy, dz;
+    if constexpr (M == ForceModel::linear) {
+      if constexpr (!FromPacked) xj = X[j] - RX[j], yj = Y[j] - RY[j], zj = Z[j] - RZ[j];  // packed holds u already
+      dx = xj - (X[v] - RX[v]), dy = yj - (Y[v] - RY[v]), dz = zj - (Z[v] - RZ[v]);
+    } else {
+      dx = xj - X[v], dy = yj - Y[v], dz = zj - Z[v];
+    }
+    pair_force<S, M>(dx, dy, dz, ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, e.rest_length, k, c, quarter_k,
+                     w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
   }
 }
 
@@ -374,6 +383,7 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
 // each neighbour fetched as two 16-byte loads from the packed array and
 // transposed to x/y/z lanes. Every arithmetic step is the one pair_force()
 // does, in the same order, without fused multiply-adds: identical bits.
+template <ForceModel M>
 __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const ForceArgs<float>& A, std::uint32_t begin,
                                                                        std::uint32_t cnt, BlockScratch<float>& w) {
   const float* __restrict P = A.packed;
@@ -388,7 +398,12 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
   std::uint32_t i = 0;
   for (; i + 8 <= cnt; i += 8) {
     const std::uint32_t v = begin + i;
-    const __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    if constexpr (M == ForceModel::linear) {  // own displacement u = p − r (the packed records hold u)
+      xi = _mm256_sub_ps(xi, _mm256_loadu_ps(A.rx + v));
+      yi = _mm256_sub_ps(yi, _mm256_loadu_ps(A.ry + v));
+      zi = _mm256_sub_ps(zi, _mm256_loadu_ps(A.rz + v));
+    }
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
     __m256 pe = _mm256_load_ps(w.pe + i);
@@ -401,18 +416,27 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
       gather_lanes(p, 4, vxj, vyj, vzj);
       const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
       const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
-      const __m256 len = _mm256_sqrt_ps(
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
-      const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
-      const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride + i));
-      const __m256 dvd =
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
-      const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
-                                      _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
-      fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
-      fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
-      fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
-      pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
+      if constexpr (M == ForceModel::linear) {
+        fx = _mm256_add_ps(fx, _mm256_add_ps(_mm256_mul_ps(k8, dx), _mm256_mul_ps(c8, dvx)));
+        fy = _mm256_add_ps(fy, _mm256_add_ps(_mm256_mul_ps(k8, dy), _mm256_mul_ps(c8, dvy)));
+        fz = _mm256_add_ps(fz, _mm256_add_ps(_mm256_mul_ps(k8, dz), _mm256_mul_ps(c8, dvz)));
+        pe = _mm256_add_ps(
+            pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                                 _mm256_mul_ps(dz, dz))));
+      } else {
+        const __m256 len = _mm256_sqrt_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+        const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
+        const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride + i));
+        const __m256 dvd =
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
+        const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
+                                        _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
+        fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
+        fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
+        fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
+        pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
+      }
     }
     _mm256_store_ps(w.fx + i, fx);
     _mm256_store_ps(w.fy + i, fy);
@@ -423,33 +447,39 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     const std::uint32_t v = begin + i;
     for (int s = 0; s < A.slots; ++s) {
       const float* pj = P + 8 * static_cast<std::size_t>(nb0[s * stride + i]);
-      pair_force<float, ForceModel::spring>(pj[0] - A.x[v], pj[1] - A.y[v], pj[2] - A.z[v], pj[4] - w.vx[i],
-                                            pj[5] - w.vy[i], pj[6] - w.vz[i], 0, 0, 0, L0[s * stride + i], k, c,
-                                            quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+      float xi = A.x[v], yi = A.y[v], zi = A.z[v], len = 0;
+      if constexpr (M == ForceModel::linear) xi = xi - A.rx[v], yi = yi - A.ry[v], zi = zi - A.rz[v];
+      else len = L0[s * stride + i];
+      pair_force<float, M>(pj[0] - xi, pj[1] - yi, pj[2] - zi, pj[4] - w.vx[i], pj[5] - w.vy[i], pj[6] - w.vz[i], 0, 0,
+                           0, len, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
     }
   }
 }
 
-template <Velocity V>
+template <ForceModel M, Velocity V>
 __attribute__((target("avx2"), always_inline)) inline void forces_avx2_block(const ForceArgs<float>& A,
                                                                               std::uint32_t begin, std::uint32_t cnt,
                                                                               std::uint32_t ob, std::uint32_t oe,
                                                                               BlockScratch<float>& w) {
   init_block<float, V>(A, begin, cnt, w);
-  slots_avx2(A, begin, cnt, w);
-  overflow_block<float, ForceModel::spring, V, true>(A, begin, ob, oe, w);
+  slots_avx2<M>(A, begin, cnt, w);
+  overflow_block<float, M, V, true>(A, begin, ob, oe, w);
 }
 
 // Forces for one block with neighbours gathered from the packed buffer.
-__attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>& A, Velocity vel,
+__attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>& A, ForceModel model, Velocity vel,
                                                          std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                          std::uint32_t oe) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
-  if (vel == Velocity::backward_difference)
-    forces_avx2_block<Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
-  else
-    forces_avx2_block<Velocity::stored>(A, begin, cnt, ob, oe, w);
+  const bool bd = vel == Velocity::backward_difference;
+  if (model == ForceModel::spring) {
+    if (bd) forces_avx2_block<ForceModel::spring, Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::spring, Velocity::stored>(A, begin, cnt, ob, oe, w);
+  } else {
+    if (bd) forces_avx2_block<ForceModel::linear, Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
+  }
   return write_acc<float>(A, begin, cnt, w);
 }
 #endif
@@ -473,8 +503,8 @@ float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uin
              std::uint32_t ob, std::uint32_t oe) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2 && a.packed && model == ForceModel::spring && !g_portable.load(std::memory_order_relaxed))
-    return forces_avx2_packed(a, vel, begin, end, ob, oe);
+  if (avx2 && a.packed && !g_portable.load(std::memory_order_relaxed))
+    return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
 #endif
   return forces_portable(a, model, vel, begin, end, ob, oe);
 }
@@ -484,27 +514,17 @@ SCULPT_CLONES double forces(const ForceArgs<double>& a, ForceModel model, Veloci
   return dispatch_forces(a, model, vel, begin, end, ob, oe);
 }
 
-void pack_one(const ForceArgs<float>& A, Velocity vel, float* packed, std::uint32_t i) {
-  float* q = packed + 8 * static_cast<std::size_t>(i);
-  q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i], q[3] = 0.0f;
-  if (vel == Velocity::backward_difference) {
-    q[4] = (A.x[i] - A.wx[i]) * A.inv_dt;
-    q[5] = (A.y[i] - A.wy[i]) * A.inv_dt;
-    q[6] = (A.z[i] - A.wz[i]) * A.inv_dt;
-  } else {
-    q[4] = A.wx[i], q[5] = A.wy[i], q[6] = A.wz[i];
-  }
-  q[7] = 0.0f;
-}
 
 namespace {
 
-template <Velocity V>
+template <Velocity V, ForceModel M>
 [[gnu::always_inline]] inline void pack_loop(const ForceArgs<float>& A, float* __restrict packed, std::uint32_t begin,
                                              std::uint32_t end) {
   for (std::uint32_t i = begin; i < end; ++i) {
     float* q = packed + 8 * static_cast<std::size_t>(i);
-    q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i], q[3] = 0.0f;
+    if constexpr (M == ForceModel::linear) q[0] = A.x[i] - A.rx[i], q[1] = A.y[i] - A.ry[i], q[2] = A.z[i] - A.rz[i];
+    else q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i];
+    q[3] = 0.0f;
     if constexpr (V == Velocity::backward_difference) {
       q[4] = (A.x[i] - A.wx[i]) * A.inv_dt;
       q[5] = (A.y[i] - A.wy[i]) * A.inv_dt;
@@ -519,13 +539,19 @@ template <Velocity V>
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
 // Eight vertices at a time: six rows (x y z vx vy vz) and two zero rows,
 // transposed 8×8 into eight {x,y,z,0,vx,vy,vz,0} records.
-template <Velocity V>
+template <Velocity V, ForceModel M>
 __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float* __restrict packed,
                                                std::uint32_t begin, std::uint32_t end) {
   std::uint32_t i = begin;
   const __m256 inv_dt = _mm256_set1_ps(A.inv_dt), zero = _mm256_setzero_ps();
   for (; i + 8 <= end; i += 8) {
     const __m256 x = _mm256_loadu_ps(A.x + i), y = _mm256_loadu_ps(A.y + i), z = _mm256_loadu_ps(A.z + i);
+    __m256 ox = x, oy = y, oz = z;  // what neighbours read: p (spring) or u = p − r (linear)
+    if constexpr (M == ForceModel::linear) {
+      ox = _mm256_sub_ps(x, _mm256_loadu_ps(A.rx + i));
+      oy = _mm256_sub_ps(y, _mm256_loadu_ps(A.ry + i));
+      oz = _mm256_sub_ps(z, _mm256_loadu_ps(A.rz + i));
+    }
     __m256 vx, vy, vz;
     if constexpr (V == Velocity::backward_difference) {
       vx = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_loadu_ps(A.wx + i)), inv_dt);
@@ -535,8 +561,8 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
       vx = _mm256_loadu_ps(A.wx + i), vy = _mm256_loadu_ps(A.wy + i), vz = _mm256_loadu_ps(A.wz + i);
     }
     // Rows a0..a3 = x y z 0 and b0..b3 = vx vy vz 0: 4×4 transposes per 128-bit lane.
-    const __m256 t0 = _mm256_unpacklo_ps(x, y), t1 = _mm256_unpackhi_ps(x, y);
-    const __m256 t2 = _mm256_unpacklo_ps(z, zero), t3 = _mm256_unpackhi_ps(z, zero);
+    const __m256 t0 = _mm256_unpacklo_ps(ox, oy), t1 = _mm256_unpackhi_ps(ox, oy);
+    const __m256 t2 = _mm256_unpacklo_ps(oz, zero), t3 = _mm256_unpackhi_ps(oz, zero);
     const __m256 a0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));  // vertices 0,4
     const __m256 a1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));  // 1,5
     const __m256 a2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));  // 2,6
@@ -557,23 +583,29 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
     _mm256_store_ps(q + 48, _mm256_permute2f128_ps(a2, b2, 0x31));
     _mm256_store_ps(q + 56, _mm256_permute2f128_ps(a3, b3, 0x31));
   }
-  pack_loop<V>(A, packed, i, end);
+  pack_loop<V, M>(A, packed, i, end);
 }
 #endif
 
 }  // namespace
 
-void pack(const ForceArgs<float>& A, Velocity vel, float* packed, std::uint32_t begin, std::uint32_t end) {
+void pack(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
+          std::uint32_t end) {
+  const bool bd = vel == Velocity::backward_difference, lin = model == ForceModel::linear;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   static const bool avx2 = __builtin_cpu_supports("avx2");
   if (avx2) {
-    if (vel == Velocity::backward_difference) pack_avx2<Velocity::backward_difference>(A, packed, begin, end);
-    else pack_avx2<Velocity::stored>(A, packed, begin, end);
+    if (bd && !lin) pack_avx2<Velocity::backward_difference, ForceModel::spring>(A, packed, begin, end);
+    else if (bd) pack_avx2<Velocity::backward_difference, ForceModel::linear>(A, packed, begin, end);
+    else if (!lin) pack_avx2<Velocity::stored, ForceModel::spring>(A, packed, begin, end);
+    else pack_avx2<Velocity::stored, ForceModel::linear>(A, packed, begin, end);
     return;
   }
 #endif
-  if (vel == Velocity::backward_difference) pack_loop<Velocity::backward_difference>(A, packed, begin, end);
-  else pack_loop<Velocity::stored>(A, packed, begin, end);
+  if (bd && !lin) pack_loop<Velocity::backward_difference, ForceModel::spring>(A, packed, begin, end);
+  else if (bd) pack_loop<Velocity::backward_difference, ForceModel::linear>(A, packed, begin, end);
+  else if (!lin) pack_loop<Velocity::stored, ForceModel::spring>(A, packed, begin, end);
+  else pack_loop<Velocity::stored, ForceModel::linear>(A, packed, begin, end);
 }
 
 SCULPT_CLONES BlockSums<float> integrate(const IntegrateArgs<float>& a, Integrator integrator, std::uint32_t begin,
@@ -590,13 +622,13 @@ void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t 
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
 namespace {
 
-template <Velocity V, Integrator I>
+template <ForceModel M, Velocity V, Integrator I>
 __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<float>& A, const IntegrateArgs<float>& In,
                                                             std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                             std::uint32_t oe, float* packed_next, float& potential) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
-  forces_avx2_block<V>(A, begin, cnt, ob, oe, w);
+  forces_avx2_block<M, V>(A, begin, cnt, ob, oe, w);
   potential = sum8(w.pe, cnt);
   const float inv_m = A.inv_mass;
   for (std::uint32_t i = 0; i < cnt; ++i) {  // the same a = f/m the acceleration buffer would hold
@@ -611,30 +643,35 @@ __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<floa
   std::memcpy(bits, sp, sizeof(float) * cnt);
   std::uint32_t m = 0;
   for (std::uint32_t i = 0; i < cnt; ++i) m = bits[i] > m ? bits[i] : m;
-  pack_avx2<V>(A, packed_next, begin, end);
+  pack_avx2<V, M>(A, packed_next, begin, end);
   return {sum8(sp, cnt), m};
 }
 
 }  // namespace
 #endif
 
-BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, Integrator integrator,
-                                  std::uint32_t begin, std::uint32_t end, std::uint32_t ob, std::uint32_t oe,
-                                  float* packed_next, float& potential) {
+BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
+                                  Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                  std::uint32_t oe, float* packed_next, float& potential) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  if (integrator == Integrator::position_verlet)
-    return fused_avx2<Velocity::backward_difference, Integrator::position_verlet>(a, in, begin, end, ob, oe,
-                                                                                   packed_next, potential);
-  if (integrator == Integrator::symplectic_euler)
-    return fused_avx2<Velocity::stored, Integrator::symplectic_euler>(a, in, begin, end, ob, oe, packed_next,
-                                                                      potential);
+  constexpr auto BD = Velocity::backward_difference;
+  constexpr auto ST = Velocity::stored;
+  constexpr auto PV = Integrator::position_verlet;
+  constexpr auto SE = Integrator::symplectic_euler;
+  const bool spring = model == ForceModel::spring;
+  if (integrator == PV)
+    return spring ? fused_avx2<ForceModel::spring, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential)
+                  : fused_avx2<ForceModel::linear, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential);
+  if (integrator == SE)
+    return spring ? fused_avx2<ForceModel::spring, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential)
+                  : fused_avx2<ForceModel::linear, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential);
 #endif
   // Not reachable when packed_path_active(); keep it correct anyway (unfused order).
   const Velocity vel =
       integrator == Integrator::position_verlet ? Velocity::backward_difference : Velocity::stored;
-  potential = forces(a, ForceModel::spring, vel, begin, end, ob, oe);
+  potential = forces(a, model, vel, begin, end, ob, oe);
   const BlockSums<float> sums = integrate(in, integrator, begin, end);
-  pack(a, vel, packed_next, begin, end);
+  pack(a, model, vel, packed_next, begin, end);
   return sums;
 }
 

@@ -44,7 +44,7 @@ struct ForceArgs {
   S inv_mass, inv_dt;
   S gravity_force[3];     // m·g, or 0
   S *ax, *ay, *az;        // out: accelerations
-  // Optional (float, spring model): per vertex {x, y, z, 0, vx, vy, vz, 0}, 32-byte
+  // Optional (float): per vertex {x, y, z, 0, vx, vy, vz, 0} (linear model: u = x − r), 32-byte
   // aligned, kept current by pack(). Lets the AVX2 path fetch a neighbour with
   // two 16-byte loads instead of six scalar gathers. Same results, bit for bit.
   const S* packed = nullptr;
@@ -81,17 +81,18 @@ BlockSums<double> integrate(const IntegrateArgs<double>& a, Integrator integrato
 void vv_open(const IntegrateArgs<float>& a, std::uint32_t begin, std::uint32_t end);
 void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t end);
 
-// Refresh packed[8i .. 8i+7] for vertices [begin, end) from x and w.
-void pack(const ForceArgs<float>& a, Velocity vel, float* packed, std::uint32_t begin, std::uint32_t end);
-void pack_one(const ForceArgs<float>& a, Velocity vel, float* packed, std::uint32_t i);
+// Refresh packed[8i .. 8i+7] for vertices [begin, end) from x, w (and r: the
+// linear model packs the displacement u = p − r, all it needs of a neighbour).
+void pack(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
+          std::uint32_t end);
 
-// The fused pass for one block (float, spring model, position Verlet or
+// The fused pass for one block (float, position Verlet or
 // symplectic Euler, AVX2 path): forces with neighbours from a.packed, integrate
 // in place, write the block's new state into packed_next. Same bits as
 // forces() + integrate() + pack(); skips the acceleration buffer.
-BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, Integrator integrator,
-                                  std::uint32_t begin, std::uint32_t end, std::uint32_t ob, std::uint32_t oe,
-                                  float* packed_next, float& potential);
+BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
+                                  Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                  std::uint32_t oe, float* packed_next, float& potential);
 
 // Testing knob: never take the AVX2 packed path (the portable clones still run).
 void force_portable(bool on);

@@ -259,7 +259,9 @@ void World<S>::pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt) {
   if (b.packed[0].empty()) return;
   for (auto& buf : b.packed) {  // both: a sleeping or just-pushed vertex must read the same from either
     S* q = buf.data() + 8 * static_cast<std::size_t>(i);
-    q[0] = b.x[i], q[1] = b.y[i], q[2] = b.z[i], q[3] = S(0);
+    if (b.material.model == ForceModel::linear) q[0] = b.x[i] - b.rx[i], q[1] = b.y[i] - b.ry[i], q[2] = b.z[i] - b.rz[i];
+    else q[0] = b.x[i], q[1] = b.y[i], q[2] = b.z[i];
+    q[3] = S(0);
     if (settings_.integrator == Integrator::position_verlet) {
       q[4] = (b.x[i] - b.wx[i]) * inv_dt;
       q[5] = (b.y[i] - b.wy[i]) * inv_dt;
@@ -459,7 +461,6 @@ void World<S>::restore(Body<S>& b) {
     b.wy[i] = verlet ? b.y[i] : S(0);
     b.wz[i] = verlet ? b.z[i] : S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
-    pack_vertex(b, i, S(1));
   }
   if (b.plastic) {
     std::copy_n(b.srx.data(), b.n, b.rx.data());
@@ -467,6 +468,7 @@ void World<S>::restore(Body<S>& b) {
     std::copy_n(b.srz.data(), b.n, b.rz.data());
     if (!b.slen.empty()) std::copy_n(b.slen.data(), b.slen.size(), b.rest_length.data());
   }
+  for (std::uint32_t i = 0; i < b.n; ++i) pack_vertex(b, i, S(1));  // velocity 0: any dt
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
     wake(b, blk);
     BlockState<S>& s = b.block[blk];
@@ -586,8 +588,8 @@ void World<S>::step_body(std::uint32_t bi) {
   for (std::uint32_t t = 0; t < tool_slots_; ++t) grabbing = grabbing || b.tools[t].grabbing;
   // The fused single pass needs neighbours read from the packed buffer (AVX2
   // path), forces before any kick (not velocity Verlet) and no grab springs.
-  const bool fused = !b.packed[0].empty() && m.model == ForceModel::spring && integ != Integrator::velocity_verlet &&
-                     !grabbing && kernel::packed_path_active();
+  const bool fused =
+      !b.packed[0].empty() && integ != Integrator::velocity_verlet && !grabbing && kernel::packed_path_active();
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
@@ -615,7 +617,7 @@ void World<S>::step_body(std::uint32_t bi) {
           const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
           float potential = 0;
           const kernel::BlockSums<float> sums = kernel::step_block_fused(
-              fa, ia, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
+              fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
           pe_scratch_[q] = potential;
           account(q, sums);
         }
@@ -625,7 +627,7 @@ void World<S>::step_body(std::uint32_t bi) {
       if constexpr (std::is_same_v<S, float>) {
         if (fa.packed)
           for (std::uint32_t q = 0; q < b.awake_count; ++q)
-            kernel::pack(fa, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
+            kernel::pack(fa, m.model, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
                          b.end_of(b.awake_list[q]));
       }
       for (std::uint32_t q = 0; q < b.awake_count; ++q) {
@@ -668,7 +670,7 @@ void World<S>::step_body(std::uint32_t bi) {
     // Leave the packed buffer matching x and w, as the next fused tick expects.
     if (!fused && !b.packed[0].empty())
       for (std::uint32_t q = 0; q < b.awake_count; ++q)
-        kernel::pack(fa, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]), b.end_of(b.awake_list[q]));
+        kernel::pack(fa, m.model, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]), b.end_of(b.awake_list[q]));
   }
   for (std::uint32_t q = 0; q < b.awake_count; ++q) {
     const std::uint32_t blk = b.awake_list[q];
@@ -705,7 +707,12 @@ void World<S>::step_body(std::uint32_t bi) {
     const S sleep2 = static_cast<S>(settings_.sleep_speed * settings_.sleep_speed);
     for (std::uint32_t q = 0; q < b.awake_count; ++q) {
       const std::uint32_t blk = b.awake_list[q];
-      if (b.plastic) plastic_flow(b, blk);
+      if (b.plastic) {
+        plastic_flow(b, blk);
+        // The linear model packs u = p − r: a rest shape that yielded changes it.
+        if (m.model == ForceModel::linear)
+          for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) pack_vertex(b, i, S(1) / dts);
+      }
       BlockState<S>& s = b.block[blk];
       const S v2 = static_cast<S>(std::bit_cast<float>(s.max_speed2_bits));
       const bool moving = !(v2 < sleep2);

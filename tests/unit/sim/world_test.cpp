@@ -272,7 +272,10 @@ std::uint64_t scripted_run(Integrator integrator) {
   Material clay;
   clay.plastic = true;
   w.add_body(make_icosphere(0.1f, 4), clay);
-  w.add_body(make_torus(0.1f, 0.03f, 48, 24), Material{});
+  Material linear_clay;
+  linear_clay.model = ForceModel::linear;
+  linear_clay.plastic = true;
+  w.add_body(make_torus(0.1f, 0.03f, 48, 24), linear_clay);
   // A cone whose apex has degree 40: the ELL overflow path.
   TriangleMesh cone;
   cone.positions.push_back({0.0f, 0.15f, 0.0f});
