@@ -394,7 +394,7 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
   // and each vertex still sums its springs in slot order (same bits).
   const std::size_t stride = A.stride;
   const std::int32_t* __restrict nb0 = A.nbr + begin;
-  const float* __restrict L0 = A.rest_length + begin;
+  const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;  // linear: none
   std::uint32_t i = 0;
   for (; i + 8 <= cnt; i += 8) {
     const std::uint32_t v = begin + i;
