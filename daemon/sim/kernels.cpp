@@ -486,13 +486,23 @@ __attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>&
 
 std::atomic<bool> g_portable{false};
 
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+// Decided once at load time, so the real-time thread never meets a
+// function-local static's first-use guard.
+bool detect_avx2() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+}
+const bool g_has_avx2 = detect_avx2();
+#endif
+
 }  // namespace
 
 void force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
 
 bool packed_path_active() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  const bool avx2 = g_has_avx2;
   return avx2 && !g_portable.load(std::memory_order_relaxed);
 #else
   return false;
@@ -502,7 +512,7 @@ bool packed_path_active() {
 float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin, std::uint32_t end,
              std::uint32_t ob, std::uint32_t oe) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  const bool avx2 = g_has_avx2;
   if (avx2 && a.packed && !g_portable.load(std::memory_order_relaxed))
     return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
 #endif
@@ -593,7 +603,7 @@ void pack(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* pack
           std::uint32_t end) {
   const bool bd = vel == Velocity::backward_difference, lin = model == ForceModel::linear;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  const bool avx2 = g_has_avx2;
   if (avx2) {
     if (bd && !lin) pack_avx2<Velocity::backward_difference, ForceModel::spring>(A, packed, begin, end);
     else if (bd) pack_avx2<Velocity::backward_difference, ForceModel::linear>(A, packed, begin, end);
@@ -677,7 +687,7 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
 
 const char* active_clone() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  return __builtin_cpu_supports("avx2") ? "avx2" : "default";
+  return g_has_avx2 ? "avx2" : "default";
 #else
   return "none";
 #endif
