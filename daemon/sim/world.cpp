@@ -274,7 +274,7 @@ void World<S>::pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt) {
 }
 
 template <class S>
-void World<S>::apply_pins(Body<S>& b, std::uint32_t blk) {
+void World<S>::apply_pins(Body<S>& b, std::uint32_t blk, S inv_dt) {
   const bool verlet = settings_.integrator == Integrator::position_verlet;
   for (std::uint32_t p = b.pinned_begin[blk]; p < b.pinned_begin[blk + 1]; ++p) {
     const Pinned<S>& pin = b.pinned[p];
@@ -282,6 +282,7 @@ void World<S>::apply_pins(Body<S>& b, std::uint32_t blk) {
     b.wx[pin.i] = verlet ? pin.x : S(0);
     b.wy[pin.i] = verlet ? pin.y : S(0);
     b.wz[pin.i] = verlet ? pin.z : S(0);
+    pack_vertex(b, pin.i, inv_dt);  // neighbours gathering from the packed buffer see the pin too
   }
 }
 
@@ -664,7 +665,7 @@ void World<S>::step_body(std::uint32_t bi) {
         tracks_[t].force[k] = before[k] + (tracks_[t].force[k] - before[k]) / nsub;
     }
     if (!b.pinned.empty())
-      for (std::uint32_t q = 0; q < b.awake_count; ++q) apply_pins(b, b.awake_list[q]);
+      for (std::uint32_t q = 0; q < b.awake_count; ++q) apply_pins(b, b.awake_list[q], S(1) / dts);
   }
   if constexpr (std::is_same_v<S, float>) {
     // Leave the packed buffer matching x and w, as the next fused tick expects.

@@ -97,7 +97,7 @@ class World {
   void collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1, S dts);
   void push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& delta, const std::array<S, 3>& normal,
                    S tool_normal_speed, S dts, ToolTrack& tr);
-  void apply_pins(Body<S>& b, std::uint32_t blk);
+  void apply_pins(Body<S>& b, std::uint32_t blk, S inv_dt);
   void pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt);
   void wake(Body<S>& b, std::uint32_t blk);
   void sleep(Body<S>& b, std::uint32_t blk);

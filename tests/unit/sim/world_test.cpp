@@ -271,7 +271,9 @@ std::uint64_t scripted_run(Integrator integrator) {
   World<float> w(s, 2);
   Material clay;
   clay.plastic = true;
-  w.add_body(make_icosphere(0.1f, 4), clay);
+  BodyOptions pins;
+  pins.pinned = {0, 5, 17, 100, 2000};
+  w.add_body(make_icosphere(0.1f, 4), clay, pins);
   Material linear_clay;
   linear_clay.model = ForceModel::linear;
   linear_clay.plastic = true;
