@@ -141,6 +141,9 @@ void World<S>::step(std::span<const Tool> tools) {
     }
   }
 
+  // More tools than slots: the extra ones are ignored, and counted.
+  if (tools.size() > tool_slots_) stats_.ignored_tools += static_cast<std::uint32_t>(tools.size() - tool_slots_);
+
   for (std::uint32_t bi = 0; bi < bodies_.size(); ++bi) step_body(bi);
 
   for (std::uint32_t t = 0; t < tool_slots_; ++t) {

@@ -51,7 +51,8 @@ class World {
   // Returns the body's index.
   std::uint32_t add_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options = {});
 
-  // One tick of 1/rate_hz. tools[t] drives tool slot t; missing slots are inactive.
+  // One tick of 1/rate_hz. tools[t] drives tool slot t; missing slots are inactive,
+  // tools beyond the slots are ignored (TickStats::ignored_tools counts them).
   void step(std::span<const Tool> tools);
 
   std::span<const ToolFeedback> feedback() const { return feedback_; }

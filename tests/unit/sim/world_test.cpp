@@ -376,6 +376,9 @@ TEST(Input, BadToolsAndMeshesAreRejectedClearly) {
   w.step({&t, 1});
   EXPECT_TRUE(w.feedback()[0].ignored);
   EXPECT_TRUE(test::all_finite(w));
+  const Tool three[3] = {};
+  w.step(three);
+  EXPECT_EQ(w.stats().ignored_tools, 2u) << "one slot, three tools: two are ignored, and say so";
 }
 
 TEST(Pinned, PinnedVerticesStayPut) {
