@@ -109,6 +109,30 @@ LoadedMesh clean_mesh(const sim::TriangleMesh& raw, const fs::path& name, const 
   return out;
 }
 
+namespace {
+
+// assimp "repairs" an out-of-range face index by clamping it (OFF, some OBJ),
+// which silently welds the face to the wrong vertex: that is a broken file,
+// not a warning.
+void reject_clamped_indices(const RawImport& raw, const fs::path& file) {
+  for (const std::string& w : raw.importer_warnings) {
+    std::string lower = w;
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (lower.find("index") != std::string::npos && lower.find("out of range") != std::string::npos) {
+      throw LoadError(file, "a face refers to a vertex index out of range (" + w + ")");
+    }
+  }
+}
+
+LoadedMesh finish_import(RawImport&& raw, const fs::path& file, const ImportOptions& options) {
+  reject_clamped_indices(raw, file);
+  LoadedMesh out = clean_mesh(raw.mesh, file, options, raw.skipped_primitives, raw.source_meshes);
+  out.warnings.insert(out.warnings.begin(), raw.importer_warnings.begin(), raw.importer_warnings.end());
+  return out;
+}
+
+}  // namespace
+
 LoadedMesh load_mesh(const fs::path& file, const ImportOptions& options) {
   std::error_code ec;
   const fs::file_status status = fs::status(file, ec);
@@ -125,19 +149,14 @@ LoadedMesh load_mesh(const fs::path& file, const ImportOptions& options) {
   } else if (probe.peek() == std::ifstream::traits_type::eof()) {
     throw LoadError(file, "the file is empty");
   }
-  RawImport raw = import_raw(file, options, [&] { return read_with_assimp(file); });
-  LoadedMesh out = clean_mesh(raw.mesh, file, options, raw.skipped_primitives, raw.source_meshes);
-  out.warnings.insert(out.warnings.begin(), raw.importer_warnings.begin(), raw.importer_warnings.end());
-  return out;
+  return finish_import(import_raw(file, options, [&] { return read_with_assimp(file); }), file, options);
 }
 
 LoadedMesh load_mesh_from_memory(std::span<const std::byte> bytes, const std::string& format_hint,
                                  const fs::path& name, const ImportOptions& options) {
   if (bytes.empty()) throw LoadError(name, "the file is empty");
-  RawImport raw = import_raw(name, options, [&] { return read_with_assimp(bytes, format_hint); });
-  LoadedMesh out = clean_mesh(raw.mesh, name, options, raw.skipped_primitives, raw.source_meshes);
-  out.warnings.insert(out.warnings.begin(), raw.importer_warnings.begin(), raw.importer_warnings.end());
-  return out;
+  return finish_import(import_raw(name, options, [&] { return read_with_assimp(bytes, format_hint); }), name,
+                       options);
 }
 
 std::vector<std::string> import_extensions() { return assimp_import_extensions(); }

@@ -175,11 +175,12 @@ INSTANTIATE_TEST_SUITE_P(
       return n;
     });
 
-TEST(Import, RepairsTheImporterMadeAreWarnings) {
-  // assimp clamps an out-of-range OFF index instead of failing: say so.
-  const LoadedMesh m = load_mesh(data_dir() / "bad" / "index_out_of_range.off");
-  ASSERT_FALSE(m.warnings.empty());
-  EXPECT_EQ(m.warnings.front(), "assimp: OFF: Vertex index is out of range");
+TEST(Import, IndexTheImporterClampedIsAnError) {
+  // assimp clamps an out-of-range OFF index instead of failing; the face
+  // would silently hang off the wrong vertex, so the load fails and says why.
+  EXPECT_EQ(error_of<LoadError>([&] { load_mesh(data_dir() / "bad" / "index_out_of_range.off"); }),
+            (data_dir() / "bad" / "index_out_of_range.off").string() +
+                ": a face refers to a vertex index out of range (assimp: OFF: Vertex index is out of range)");
 }
 
 TEST(Import, DirectoryIsNotAMesh) {
