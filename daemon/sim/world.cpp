@@ -215,8 +215,12 @@ void World<S>::broadphase(Body<S>& b, std::uint32_t t) {
   }
   if (!tr.active) return;
   if (!overlaps(b.lo, b.hi, tr.lo, tr.hi, S(0))) {
-    if (tc.grabbing)  // still holding vertices though out of reach of the box: keep them awake
-      for (std::uint32_t g = 0; g < tc.grab_count; ++g) wake(b, tc.grabs[g].i / kBlock), b.block[tc.grabs[g].i / kBlock].touched = true;
+    if (tc.grabbing) {  // still holding vertices though out of reach of the box: keep them awake
+      for (std::uint32_t g = 0; g < tc.grab_count; ++g) {
+        wake(b, tc.grabs[g].i / kBlock);
+        b.block[tc.grabs[g].i / kBlock].touched = true;
+      }
+    }
     return;
   }
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
