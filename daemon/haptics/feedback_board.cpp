@@ -1,0 +1,36 @@
+#include "haptics/feedback_board.hpp"
+
+namespace sculpt::haptics {
+
+FeedbackBoard::FeedbackBoard(int tool_slots)
+    : slots_(tool_slots < 0 ? 0 : tool_slots), slot_(std::make_unique<Slot[]>(static_cast<std::size_t>(slots_))) {}
+
+void FeedbackBoard::publish(int tool, const sim::ToolFeedback& feedback) {
+  if (tool < 0 || tool >= slots_) return;
+  Slot& s = slot_[static_cast<std::size_t>(tool)];
+  ToolForce& w = s.writer_copy;
+  w.force = feedback.force;
+  w.contacts = feedback.contacts;
+  if (feedback.onset) {
+    ++w.onsets;
+    w.last_onset_impulse = feedback.onset_impulse;
+  }
+  ++w.ticks;
+  s.value.store(w);
+}
+
+void FeedbackBoard::clear(int tool) {
+  if (tool < 0 || tool >= slots_) return;
+  Slot& s = slot_[static_cast<std::size_t>(tool)];
+  s.writer_copy.force = {};
+  s.writer_copy.contacts = 0;
+  ++s.writer_copy.ticks;
+  s.value.store(s.writer_copy);
+}
+
+ToolForce FeedbackBoard::read(int tool) const {
+  if (tool < 0 || tool >= slots_) return {};
+  return slot_[static_cast<std::size_t>(tool)].value.load();
+}
+
+}  // namespace sculpt::haptics

@@ -1,0 +1,105 @@
+// One force-feedback device, RAII: the effects it holds are stopped and erased
+// when it is destroyed (or shut down), never leaked.
+//
+// The upload state machine, per effect kind (constant, rumble):
+//   no id ──upload(id −1)──▶ id n ──upload(id n)──▶ id n ...   (update in place, never a new slot)
+//   EINVAL on an update (the id vanished)  → forget it, next time upload with −1 again
+//   EINVAL on a new constant               → the device refuses constant force: rumble-only from now on
+//   ENOSPC on a new effect                 → no free slot: a rumble gives its slot to the constant
+//                                             (ff_effects_max = 1: the constant wins, or the rumble on
+//                                             rumble-only pads); a constant that still cannot get one
+//                                             is retried on the next change
+//   ENODEV                                 → unplugged: stop issuing anything; forget() drops the ids
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "haptics/effect_math.hpp"
+#include "haptics/ff_port.hpp"
+
+namespace sculpt::haptics {
+
+// Counters shared by every device of the haptics thread; the daemon reads them
+// from other threads.
+struct FfCounters {
+  std::atomic<std::uint64_t> uploads{0};      // successful EVIOCSFF (new + in place)
+  std::atomic<std::uint64_t> errors{0};       // failed ioctls/writes
+  std::atomic<std::uint64_t> kicks{0};        // rumble kicks played
+  std::atomic<std::int64_t> live_effects{0};  // effect ids held right now, all devices
+};
+
+enum class FfMode {
+  none,          // no usable FF: input only
+  constant,      // FF_CONSTANT (+ FF_RUMBLE kicks when there is a slot for them)
+  rumble_only,   // FF_RUMBLE kicks only
+};
+
+struct FfDeviceOptions {
+  std::uint16_t gain = 0xffff;  // FF_GAIN, written once when the device supports it
+  bool constant = true;         // allow FF_CONSTANT
+  bool rumble = true;           // allow FF_RUMBLE kicks
+};
+
+class FfDevice {
+ public:
+  // Reads the caps, decides the mode, sets FF_GAIN. counters may be null.
+  FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options, FfCounters* counters);
+  // Opens `node` (throws std::system_error naming it).
+  static std::unique_ptr<FfDevice> open(const std::string& node, const FfDeviceOptions& options,
+                                        FfCounters* counters);
+  ~FfDevice();
+  FfDevice(const FfDevice&) = delete;
+  FfDevice& operator=(const FfDevice&) = delete;
+
+  FfMode mode() const { return mode_; }
+  const FfCaps& caps() const { return caps_; }
+  bool rumble_allowed() const;  // kicks possible in this mode (a slot, a bit, the option)
+  const std::string& node() const;
+
+  // Uploads the constant force (first time with id −1 and starts it playing
+  // forever, then in place with the same id). Returns whether the device now
+  // has `c`. No-op returning false when the mode has no constant force.
+  bool set_constant(const ConstantCommand& c);
+  // Uploads (or updates in place) the rumble effect and plays it once.
+  bool kick(const RumbleCommand& r);
+
+  // FF_GAIN (0..0xffff), when the device has it.
+  void set_gain(std::uint16_t gain);
+
+  // Stops and erases every effect this device holds. Idempotent.
+  void shutdown();
+  // The device is gone: drop the ids without talking to it (the kernel freed them).
+  void forget();
+  // An ioctl saw ENODEV: the node is dead; nothing more is sent.
+  bool gone() const { return gone_; }
+
+  std::int16_t constant_id() const { return constant_id_; }
+  std::int16_t rumble_id() const { return rumble_id_; }
+  int live_effects() const { return (constant_id_ >= 0) + (rumble_id_ >= 0); }
+  // The constant the device has now (valid while constant_id() >= 0).
+  const ConstantCommand& current_constant() const { return current_; }
+
+ private:
+  int upload(ff_effect& e, std::int16_t& id);  // the state machine step; 0 or errno
+  bool erase(std::int16_t& id);
+  void count_error(int err);
+  void add_live(int delta);
+
+  std::unique_ptr<FfPort> port_;
+  FfDeviceOptions options_;
+  FfCounters* counters_;
+  FfCaps caps_;
+  FfMode mode_ = FfMode::none;
+  bool rumble_ok_ = false;
+  bool gone_ = false;
+  bool shut_ = false;       // shut down: nothing more is sent
+  bool rumble_has_ = false; // FF_RUMBLE usable at all (bit, option, a slot)
+  std::int16_t constant_id_ = -1;
+  std::int16_t rumble_id_ = -1;
+  ConstantCommand current_{};
+};
+
+}  // namespace sculpt::haptics

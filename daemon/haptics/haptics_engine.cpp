@@ -1,0 +1,141 @@
+#include "haptics/haptics_engine.hpp"
+
+#include <systemd/sd-daemon.h>
+
+#include <cstdio>
+#include <exception>
+#include <utility>
+
+namespace sculpt::haptics {
+
+HapticsEngine::HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
+                             HapticsStats& stats)
+    : board_(board), settings_(std::move(settings)), opener_(std::move(opener)), stats_(stats) {}
+
+HapticsEngine::~HapticsEngine() { shutdown(); }
+
+void HapticsEngine::open_ff(Attached& d) {
+  d.ff.reset();
+  if (!settings_.enabled || d.node.empty()) return;
+  FfDeviceOptions options;
+  options.gain = settings_.gain;
+  options.constant = settings_.constant;
+  options.rumble = settings_.rumble_on_onset;
+  try {
+    auto ff = std::make_unique<FfDevice>(opener_(d.node), options, &stats_.ff);
+    if (ff->mode() == FfMode::none) return;  // input only: no fd kept open for nothing
+    d.ff = std::move(ff);
+    stats_.ff_devices.fetch_add(1, std::memory_order_relaxed);
+  } catch (const std::exception& e) {
+    // A device we cannot open for FF still works as input: say so, go on.
+    stats_.open_failures.fetch_add(1, std::memory_order_relaxed);
+    last_error_ = e.what();
+    std::fprintf(stderr, SD_WARNING "haptics: no force feedback on %s: %s\n", d.node.c_str(), e.what());
+  }
+}
+
+void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools) {
+  if (devices_.count(slot)) detach_alive(slot);
+  const auto interval = std::chrono::duration_cast<std::chrono::nanoseconds>(settings_.min_upload_interval);
+  Attached d{node, std::move(tools), nullptr, ConstantPacer(interval, settings_.change), KickPacer(interval), {}, false};
+  d.onsets_seen.assign(d.tools.size(), 0);
+  open_ff(d);
+  devices_.emplace(slot, std::move(d));
+  stats_.devices.fetch_add(1, std::memory_order_relaxed);
+}
+
+void HapticsEngine::detach_alive(int slot) {
+  // Replaced while still plugged in (no detach came): stop and erase properly.
+  auto it = devices_.find(slot);
+  if (it == devices_.end()) return;
+  if (it->second.ff) {
+    it->second.ff->shutdown();
+    stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
+  }
+  devices_.erase(it);
+  stats_.devices.fetch_sub(1, std::memory_order_relaxed);
+}
+
+void HapticsEngine::detach(int slot) {
+  auto it = devices_.find(slot);
+  if (it == devices_.end()) return;
+  if (it->second.ff) {
+    it->second.ff->forget();  // unplugged: the kernel dropped the effects with the device
+    stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
+  }
+  devices_.erase(it);
+  stats_.devices.fetch_sub(1, std::memory_order_relaxed);
+}
+
+void HapticsEngine::configure(const HapticsSettings& settings) {
+  const bool reopen = settings.enabled != settings_.enabled || settings.constant != settings_.constant ||
+                      settings.rumble_on_onset != settings_.rumble_on_onset;
+  settings_ = settings;
+  const auto interval = std::chrono::duration_cast<std::chrono::nanoseconds>(settings_.min_upload_interval);
+  for (auto& [slot, d] : devices_) {
+    d.constant.set_interval(interval);
+    d.constant.set_threshold(settings_.change);
+    d.kick.set_interval(interval);
+    if (reopen) {
+      if (d.ff) {
+        d.ff->shutdown();
+        stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
+      }
+      open_ff(d);
+      d.constant.reset();
+    } else if (d.ff) {
+      d.ff->set_gain(settings_.gain);
+    }
+  }
+}
+
+void HapticsEngine::poll(Clock::time_point now) {
+  for (auto& [slot, d] : devices_)
+    if (d.ff && !d.ff->gone()) poll_device(d, now);
+}
+
+void HapticsEngine::poll_device(Attached& d, Clock::time_point now) {
+  StickForce total;
+  for (std::size_t i = 0; i < d.tools.size(); ++i) {
+    const ToolForce f = board_.read(d.tools[i].tool);
+    const StickForce s = project_to_stick(f.force, d.tools[i].plane);
+    total.x += s.x;
+    total.y += s.y;
+    if (d.primed && f.onsets != d.onsets_seen[i]) d.kick.onset(f.last_onset_impulse);
+    d.onsets_seen[i] = f.onsets;
+  }
+  d.primed = true;
+
+  FfDevice& ff = *d.ff;
+  if (ff.mode() == FfMode::constant) {
+    const ConstantCommand want = constant_from_force(total, settings_.force);
+    if (d.constant.should_send(want, now)) {
+      if (ff.set_constant(want))
+        d.constant.sent(want, now);
+      else
+        d.constant.failed(now);
+    }
+  }
+  if (d.kick.due(now)) {
+    if (ff.rumble_allowed()) ff.kick(rumble_from_impulse(d.kick.pending_impulse(), settings_.rumble));
+    d.kick.kicked(now);
+  }
+}
+
+void HapticsEngine::shutdown() {
+  for (auto& [slot, d] : devices_) {
+    if (d.ff) {
+      d.ff->shutdown();
+      stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
+    }
+  }
+  stats_.devices.fetch_sub(static_cast<int>(devices_.size()), std::memory_order_relaxed);
+  devices_.clear();
+}
+
+const FfDevice* HapticsEngine::device(int slot) const {
+  auto it = devices_.find(slot);
+  return it == devices_.end() ? nullptr : it->second.ff.get();
+}
+
+}  // namespace sculpt::haptics

@@ -1,0 +1,95 @@
+// The haptics thread's work, without the thread: attached devices, the tools
+// each one feels, and per poll the decision what to upload. Single-threaded;
+// HapticsThread drives it. Tests drive it directly with a fake FfPort and an
+// explicit clock.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "haptics/effect_math.hpp"
+#include "haptics/feedback_board.hpp"
+#include "haptics/ff_device.hpp"
+#include "haptics/ff_port.hpp"
+#include "haptics/pacer.hpp"
+
+namespace sculpt::haptics {
+
+// A tool a device feels, and how its stick maps onto the tool's axes.
+struct ToolStick {
+  int tool = 0;
+  StickPlane plane{};
+};
+
+struct HapticsSettings {
+  bool enabled = true;                                  // false: no device is opened for FF
+  std::chrono::milliseconds poll_interval{4};           // how often the thread reads the board
+  std::chrono::milliseconds min_upload_interval{25};    // per device, between uploads
+  ForceScale force{};
+  RumbleScale rumble{};
+  ChangeThreshold change{};
+  std::uint16_t gain = 0xffff;                          // FF_GAIN
+  bool constant = true;                                 // FF_CONSTANT from the contact force
+  bool rumble_on_onset = true;                          // FF_RUMBLE kick when contact begins
+};
+
+// Opens an event node for FF; the default is open_evdev_port.
+using PortOpener = std::function<std::unique_ptr<FfPort>(const std::string& node)>;
+
+struct HapticsStats {
+  FfCounters ff;                              // uploads, errors, kicks, live effect ids
+  std::atomic<int> devices{0};                // devices attached (FF or not)
+  std::atomic<int> ff_devices{0};             // of those, with usable FF
+  std::atomic<std::uint64_t> open_failures{0};
+};
+
+class HapticsEngine {
+ public:
+  HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
+                HapticsStats& stats);
+  ~HapticsEngine();  // shutdown()
+
+  // A device appeared on `slot` (the input layer's stable slot) at `node`,
+  // driving `tools`. Replaces what was on the slot (that one is shut down).
+  // Open failures are counted and logged, never thrown.
+  void attach(int slot, const std::string& node, std::vector<ToolStick> tools);
+  // Unplugged: the kernel already dropped its effects; forget the ids.
+  void detach(int slot);
+  void configure(const HapticsSettings& settings);
+
+  // Reads the board and uploads what is due.
+  void poll(Clock::time_point now);
+  // Stop and erase every effect of every device, close them. Idempotent.
+  void shutdown();
+
+  // For tests and logs.
+  const FfDevice* device(int slot) const;
+  const std::string& last_error() const { return last_error_; }
+
+ private:
+  struct Attached {
+    std::string node;
+    std::vector<ToolStick> tools;
+    std::unique_ptr<FfDevice> ff;  // null: no FF (or it could not be opened)
+    ConstantPacer constant;
+    KickPacer kick;
+    std::vector<std::uint64_t> onsets_seen;  // per tool: the board's onset counter at the last poll
+    bool primed = false;                     // onsets before the first poll give no kick
+  };
+  void open_ff(Attached& d);
+  void detach_alive(int slot);
+  void poll_device(Attached& d, Clock::time_point now);
+
+  const FeedbackBoard& board_;
+  HapticsSettings settings_;
+  PortOpener opener_;
+  HapticsStats& stats_;
+  std::map<int, Attached> devices_;
+  std::string last_error_;
+};
+
+}  // namespace sculpt::haptics

@@ -1,0 +1,96 @@
+#include "haptics/haptics_thread.hpp"
+
+#include <utility>
+
+namespace sculpt::haptics {
+
+HapticsThread::HapticsThread(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener)
+    : engine_(board, settings, std::move(opener), stats_), poll_interval_(settings.poll_interval) {}
+
+HapticsThread::~HapticsThread() { stop(); }
+
+void HapticsThread::start() {
+  if (thread_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = false;
+  }
+  thread_ = std::thread([this] { run(); });
+}
+
+void HapticsThread::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  engine_.shutdown();  // the thread has ended: safe here too (idempotent)
+  done_.notify_all();
+}
+
+void HapticsThread::push(Command c) {
+  {
+    std::lock_guard lock(mutex_);
+    queue_.push_back(std::move(c));
+  }
+  wake_.notify_all();
+}
+
+void HapticsThread::attach(int slot, std::string node, std::vector<ToolStick> tools) {
+  push(Attach{slot, std::move(node), std::move(tools)});
+}
+void HapticsThread::detach(int slot) { push(Detach{slot}); }
+void HapticsThread::configure(const HapticsSettings& settings) { push(Configure{settings}); }
+
+void HapticsThread::flush() {
+  std::unique_lock lock(mutex_);
+  if (!thread_.joinable()) return;
+  // Two completed polls from now: the second one started after this call,
+  // with every command queued before it applied.
+  const std::uint64_t target = polls_ + 2;
+  wake_now_ = true;
+  wake_.notify_all();
+  done_.wait(lock, [&] { return polls_ >= target || stopping_; });
+}
+
+void HapticsThread::run() {
+  auto next = Clock::now();
+  std::deque<Command> batch;
+  for (;;) {
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait_until(lock, next, [&] { return stopping_ || wake_now_ || !queue_.empty(); });
+      if (stopping_) break;
+      wake_now_ = false;
+      batch.swap(queue_);
+    }
+    for (auto& c : batch) {
+      if (auto* a = std::get_if<Attach>(&c)) {
+        engine_.attach(a->slot, a->node, std::move(a->tools));
+      } else if (auto* d = std::get_if<Detach>(&c)) {
+        engine_.detach(d->slot);
+      } else if (auto* s = std::get_if<Configure>(&c)) {
+        engine_.configure(s->settings);
+        poll_interval_ = s->settings.poll_interval;
+      }
+    }
+    batch.clear();
+    const auto now = Clock::now();
+    if (now >= next) {
+      engine_.poll(now);
+      next += poll_interval_;
+      if (next <= now) next = now + poll_interval_;  // fell behind (a slow ioctl): no burst to catch up
+    } else {
+      engine_.poll(now);  // woken early by a command or a flush: apply it now, keep the schedule
+    }
+    {
+      std::lock_guard lock(mutex_);
+      ++polls_;
+    }
+    done_.notify_all();
+  }
+  engine_.shutdown();
+}
+
+}  // namespace sculpt::haptics
