@@ -1,0 +1,140 @@
+#include "loop/sim_thread.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+#include <sys/mman.h>
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <system_error>
+
+namespace sculpt::loop {
+
+const char* stage_name(Stage s) {
+  switch (s) {
+    case Stage::input: return "input";
+    case Stage::collision: return "collision";
+    case Stage::integration: return "integration";
+    case Stage::publish: return "publish";
+    case Stage::count: break;
+  }
+  return "?";
+}
+
+std::int64_t monotonic_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+namespace {
+
+timespec to_timespec(std::int64_t ns) {
+  return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+}
+
+void store(std::atomic<std::uint64_t>& a, std::uint64_t v) { a.store(v, std::memory_order_relaxed); }
+void bump(std::atomic<std::uint64_t>& a) { a.store(a.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); }
+
+}  // namespace
+
+SimThread::SimThread(sim::World<float>& world, TickStages& stages, std::size_t tool_count,
+                     const SimThreadOptions& options)
+    : world_(world), stages_(stages), tools_(tool_count), options_(options) {
+  if (!(options.rate_hz >= 1.0 && options.rate_hz <= 100'000.0))
+    throw std::invalid_argument("rate must be between 1 and 100000 Hz, got " + std::to_string(options.rate_hz));
+  if (options.realtime_priority < 1 || options.realtime_priority > 99)
+    throw std::invalid_argument("realtime priority must be 1..99");
+  period_ns_ = std::llround(1e9 / options.rate_hz);
+  for (auto& t : tools_) t.active = false;
+  std::uint64_t total = 0;
+  for (std::size_t b = 0; b < world.body_count(); ++b) total += world.body(b).n;
+  store(stats_.vertices_total, total);
+}
+
+SimThread::~SimThread() { stop(); }
+
+RealtimeResult SimThread::start() {
+  RealtimeResult rt;
+  if (thread_.joinable()) return rt;
+  if (options_.realtime) {
+    // Lock what is mapped now and what comes later: a page fault in the loop
+    // is a disk read away from an overrun.
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) rt.locked = true;
+    else rt.warnings.push_back(std::string("--realtime: mlockall failed (") + std::strerror(errno) +
+                               "): memory may be paged out; raise LimitMEMLOCK or grant CAP_IPC_LOCK");
+  }
+  thread_ = std::thread([this] { run(); });
+  pthread_setname_np(thread_.native_handle(), "sculptd-sim");
+  if (options_.realtime) {
+    sched_param sp{};
+    sp.sched_priority = options_.realtime_priority;
+    const int err = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
+    if (err == 0) rt.fifo = true;
+    else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
+                               "): running at normal priority; grant CAP_SYS_NICE or an RLIMIT_RTPRIO");
+  }
+  return rt;
+}
+
+void SimThread::stop() {
+  stop_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+}
+
+void SimThread::run() {
+  const std::int64_t period = period_ns_;
+  std::int64_t deadline = monotonic_ns() + period;
+  std::uint64_t tick = world_.tick();
+  auto& stage = stats_.stage;
+  while (!stop_.load(std::memory_order_acquire)) {
+    const timespec ts = to_timespec(deadline);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
+    const std::int64_t t0 = monotonic_ns();
+    stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));
+
+    stages_.input(tick, tools_);
+    const std::int64_t t1 = monotonic_ns();
+    world_.step(tools_);
+    const std::int64_t t2 = monotonic_ns();
+    stages_.publish(tick, world_);
+    const std::int64_t t3 = monotonic_ns();
+
+    stage[static_cast<int>(Stage::input)].record(static_cast<std::uint64_t>(t1 - t0));
+    // World::step collides and integrates in one pass per substep; until it
+    // reports the split the whole step counts as integration, collision as 0.
+    stage[static_cast<int>(Stage::collision)].record(0);
+    stage[static_cast<int>(Stage::integration)].record(static_cast<std::uint64_t>(t2 - t1));
+    stage[static_cast<int>(Stage::publish)].record(static_cast<std::uint64_t>(t3 - t2));
+
+    const sim::TickStats& ws = world_.stats();
+    store(stats_.vertices_awake, ws.awake_vertices);
+    store(stats_.blowups, ws.blowups_total);
+    store(stats_.contacts, ws.contacts);
+    stats_.last_tick_ns.store(t3, std::memory_order_relaxed);
+    ++tick;
+    stats_.ticks.store(stats_.ticks.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+
+    deadline += period;
+    if (t3 > deadline) {
+      bump(stats_.overruns);
+      // More than a whole period behind: drop the missed periods instead of
+      // running a burst of ticks back to back.
+      if (t3 - deadline > period) {
+        const std::int64_t missed = (t3 - deadline) / period;
+        deadline += missed * period;
+        stats_.skipped_periods.store(stats_.skipped_periods.load(std::memory_order_relaxed) +
+                                         static_cast<std::uint64_t>(missed),
+                                     std::memory_order_relaxed);
+      }
+    }
+    if (options_.max_ticks != 0 && stats_.ticks.load(std::memory_order_relaxed) >= options_.max_ticks) break;
+  }
+  finished_.store(true, std::memory_order_release);
+}
+
+}  // namespace sculpt::loop

@@ -1,0 +1,99 @@
+// The fixed-rate simulation thread. Every period, at an absolute deadline on
+// CLOCK_MONOTONIC: input stage (inputs due → tool poses), World::step, publish
+// stage (feedback, change log), then the stats. Nothing in the loop allocates,
+// locks or makes a blocking call other than clock_nanosleep: the stages are
+// the caller's, and must keep to the same rule.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "loop/histogram.hpp"
+#include "sim/tool.hpp"
+#include "sim/world.hpp"
+
+namespace sculpt::loop {
+
+// What the sim thread calls around World::step, on the sim thread.
+class TickStages {
+ public:
+  virtual ~TickStages() = default;
+  // Apply the inputs due at `tick` and write the tools' poses into `tools`.
+  virtual void input(std::uint64_t tick, std::span<sim::Tool> tools) = 0;
+  // Hand the tick's results on (feedback to the haptics, changes to viewers).
+  virtual void publish(std::uint64_t tick, const sim::World<float>& world) = 0;
+};
+
+enum class Stage : int { input = 0, collision, integration, publish, count };
+const char* stage_name(Stage s);
+
+// Written by the sim thread only; read from anywhere.
+struct LoopStats {
+  std::atomic<std::uint64_t> ticks{0};
+  std::atomic<std::uint64_t> overruns{0};         // ticks whose work ended past the next deadline
+  std::atomic<std::uint64_t> skipped_periods{0};  // whole periods dropped to get back on schedule
+  std::atomic<std::uint64_t> vertices_total{0};
+  std::atomic<std::uint64_t> vertices_awake{0};
+  std::atomic<std::uint64_t> blowups{0};
+  std::atomic<std::uint64_t> contacts{0};         // this tick, all tools
+  std::atomic<std::int64_t> last_tick_ns{0};      // CLOCK_MONOTONIC of the last completed tick
+  LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns
+  LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
+};
+
+struct SimThreadOptions {
+  double rate_hz = 1000.0;
+  std::uint64_t max_ticks = 0;   // stop by itself after this many ticks (0: run until stop())
+  bool realtime = false;         // SCHED_FIFO + mlockall, when permitted
+  int realtime_priority = 50;    // SCHED_FIFO priority, 1..99
+};
+
+// Outcome of asking for real-time scheduling: what worked and, if not, why.
+struct RealtimeResult {
+  bool fifo = false;
+  bool locked = false;
+  std::vector<std::string> warnings;
+};
+
+std::int64_t monotonic_ns();
+
+class SimThread {
+ public:
+  // The world and stages must outlive the thread. tool_count tools are
+  // passed to World::step each tick. Throws std::invalid_argument on a bad rate.
+  SimThread(sim::World<float>& world, TickStages& stages, std::size_t tool_count, const SimThreadOptions& options);
+  ~SimThread();
+  SimThread(const SimThread&) = delete;
+  SimThread& operator=(const SimThread&) = delete;
+
+  // Starts the thread (and applies --realtime). Throws std::system_error if
+  // the thread cannot be created.
+  RealtimeResult start();
+  // Asks the thread to stop after its current tick and joins it. Idempotent.
+  void stop();
+  // The thread has left its loop (stop(), max_ticks reached).
+  bool finished() const { return finished_.load(std::memory_order_acquire); }
+
+  const LoopStats& stats() const { return stats_; }
+  const SimThreadOptions& options() const { return options_; }
+  std::uint64_t ticks() const { return stats_.ticks.load(std::memory_order_acquire); }
+
+ private:
+  void run();
+
+  sim::World<float>& world_;
+  TickStages& stages_;
+  std::vector<sim::Tool> tools_;
+  SimThreadOptions options_;
+  std::int64_t period_ns_;
+  LoopStats stats_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> finished_{false};
+  std::thread thread_;
+};
+
+}  // namespace sculpt::loop

@@ -1,0 +1,44 @@
+// The daemon's stats as one JSON object: written by `sculptd --stats-json` at
+// exit and (later) printed by `sculptctl status --json`. Built in one place so
+// both always carry exactly the same keys:
+//   rate_hz, ticks, overruns, jitter_us {p50, p99, max},
+//   stage_us {input, collision, integration, publish: {p50, p99, max}},
+//   vertices_total, vertices_awake, viewers, devices, ff_uploads, bytes_sent, blowups
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include <nlohmann/json.hpp>
+
+#include "loop/sim_thread.hpp"
+
+namespace sculpt::loop {
+
+struct Percentiles {
+  double p50 = 0, p99 = 0, max = 0;  // µs
+};
+
+struct StatsSnapshot {
+  double rate_hz = 0;
+  std::uint64_t ticks = 0;
+  std::uint64_t overruns = 0;
+  Percentiles jitter_us;
+  std::array<Percentiles, static_cast<int>(Stage::count)> stage_us{};
+  std::uint64_t vertices_total = 0;
+  std::uint64_t vertices_awake = 0;
+  std::uint64_t viewers = 0;      // the streaming server's (0 until it exists)
+  std::uint64_t devices = 0;      // input devices attached now
+  std::uint64_t ff_uploads = 0;   // the haptics thread's
+  std::uint64_t bytes_sent = 0;   // the streaming server's
+  std::uint64_t blowups = 0;
+};
+
+Percentiles percentiles_us(const LatencyHistogram& h);
+
+// The sim thread's part (everything but viewers, devices, ff_uploads, bytes_sent).
+StatsSnapshot snapshot(const LoopStats& stats, double rate_hz);
+
+nlohmann::json stats_json(const StatsSnapshot& s);
+
+}  // namespace sculpt::loop

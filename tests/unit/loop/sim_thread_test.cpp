@@ -1,0 +1,212 @@
+// The fixed-rate thread: runs the stages in order once per tick, stops on
+// request or after max_ticks, counts overruns, and allocates nothing once
+// running (every operator new on the sim thread is counted).
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <new>
+#include <thread>
+
+#include "loop/sim_thread.hpp"
+#include "loop/stats_json.hpp"
+#include "loop/tool_driver.hpp"
+#include "sim/shapes.hpp"
+
+namespace {
+// Allocations made on the sim thread once it has started ticking.
+thread_local bool t_counting = false;
+std::atomic<long> g_sim_thread_allocations{0};
+
+void count() {
+  if (t_counting) g_sim_thread_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+}  // namespace
+
+void* operator new(std::size_t n) {
+  count();
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, std::align_val_t a) {
+  count();
+  const std::size_t al = static_cast<std::size_t>(a);
+  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+  count();
+  return std::malloc(n ? n : 1);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
+  count();
+  const std::size_t al = static_cast<std::size_t>(a);
+  return std::aligned_alloc(al, (n + al - 1) / al * al);
+}
+void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t& t) noexcept {
+  return operator new(n, a, t);
+}
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+namespace sculpt::loop {
+namespace {
+
+using namespace std::chrono_literals;
+
+sim::World<float> small_world() {
+  sim::World<float> w(sim::SimSettings{}, 1);
+  w.add_body(sim::make_icosphere(0.05f, 2), sim::Material{});
+  return w;
+}
+
+// Drives one tool down into the ball with a ToolDriver, as the daemon does.
+struct PressStages : TickStages {
+  ToolDriver driver{{ToolSpec{sim::ToolShape::sphere, 0.02, 0.04, {0, 0.1, 0}, 0.5}},
+                    DriverLimits{Box{{-1, -1, -1}, {1, 1, 1}}}, 1000.0};
+  std::atomic<std::uint64_t> inputs{0}, publishes{0}, contacts{0};
+  std::atomic<bool> out_of_order{false};
+  std::chrono::milliseconds slow_tick{0};
+  std::uint64_t slow_at = ~std::uint64_t{0};
+
+  void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
+    t_counting = true;
+    if (tick != inputs.load()) out_of_order = true;
+    DriveInput in;
+    in.connected = true;
+    in.stick = {0.0f, -1.0f, 0.0f};
+    driver.update({&in, 1}, tools);
+    inputs.fetch_add(1);
+    if (tick == slow_at) std::this_thread::sleep_for(slow_tick);  // only to provoke an overrun
+  }
+  void publish(std::uint64_t, const sim::World<float>& world) override {
+    publishes.fetch_add(1);
+    contacts.fetch_add(world.feedback()[0].contacts);
+  }
+};
+
+bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout = 10s) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+
+TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
+  auto world = small_world();
+  PressStages stages;
+  SimThreadOptions o;
+  o.rate_hz = 2000;
+  o.max_ticks = 300;
+  SimThread thread(world, stages, 1, o);
+  const RealtimeResult rt = thread.start();
+  EXPECT_TRUE(rt.warnings.empty());
+  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  thread.stop();
+  EXPECT_EQ(thread.ticks(), 300u);
+  EXPECT_EQ(stages.inputs.load(), 300u);
+  EXPECT_EQ(stages.publishes.load(), 300u);
+  EXPECT_EQ(world.tick(), 300u);
+  EXPECT_FALSE(stages.out_of_order.load());
+  EXPECT_GT(stages.contacts.load(), 0u) << "the tool never reached the ball";
+  const StatsSnapshot s = snapshot(thread.stats(), o.rate_hz);
+  EXPECT_EQ(s.ticks, 300u);
+  EXPECT_EQ(thread.stats().jitter.count(), 300u);
+  EXPECT_EQ(s.vertices_total, world.body(0).n);
+  EXPECT_GE(s.jitter_us.max, s.jitter_us.p99);
+}
+
+TEST(SimThread, StopIsPromptAndIdempotent) {
+  auto world = small_world();
+  PressStages stages;
+  SimThread thread(world, stages, 1, SimThreadOptions{});
+  thread.start();
+  ASSERT_TRUE(wait_until([&] { return thread.ticks() >= 5; }));
+  thread.stop();
+  EXPECT_TRUE(thread.finished());
+  const std::uint64_t n = thread.ticks();
+  thread.stop();
+  EXPECT_EQ(thread.ticks(), n);
+}
+
+TEST(SimThread, ATickThatRunsPastTheNextDeadlineIsAnOverrun) {
+  auto world = small_world();
+  PressStages stages;
+  stages.slow_at = 10;
+  stages.slow_tick = 20ms;  // 20 periods at 1 kHz
+  SimThreadOptions o;
+  o.max_ticks = 30;
+  SimThread thread(world, stages, 1, o);
+  thread.start();
+  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  EXPECT_GE(thread.stats().overruns.load(), 1u);
+  EXPECT_GE(thread.stats().skipped_periods.load(), 1u);  // no burst of catch-up ticks
+  EXPECT_EQ(thread.ticks(), 30u);
+}
+
+TEST(SimThread, NothingIsAllocatedOnTheSimThreadOnceItRuns) {
+  auto world = small_world();
+  PressStages stages;
+  SimThreadOptions o;
+  o.max_ticks = 500;
+  SimThread thread(world, stages, 1, o);
+  g_sim_thread_allocations = 0;
+  thread.start();
+  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  thread.stop();
+  EXPECT_GT(stages.contacts.load(), 0u);
+  EXPECT_EQ(g_sim_thread_allocations.load(), 0) << "the sim thread allocated while ticking";
+}
+
+TEST(SimThread, BadRatesAreRejected) {
+  auto world = small_world();
+  PressStages stages;
+  SimThreadOptions o;
+  o.rate_hz = 0;
+  EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
+  o.rate_hz = 1000;
+  o.realtime_priority = 0;
+  EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
+}
+
+TEST(StatsJson, CarriesExactlyTheListedKeys) {
+  StatsSnapshot s;
+  s.rate_hz = 1000;
+  s.ticks = 12;
+  s.devices = 2;
+  const nlohmann::json j = stats_json(s);
+  std::vector<std::string> keys;
+  for (const auto& [k, v] : j.items()) keys.push_back(k);
+  std::sort(keys.begin(), keys.end());
+  const std::vector<std::string> expected{"blowups",  "bytes_sent",     "devices",        "ff_uploads",
+                                          "jitter_us", "overruns",      "rate_hz",        "stage_us",
+                                          "ticks",    "vertices_awake", "vertices_total", "viewers"};
+  EXPECT_EQ(keys, expected);
+  for (const char* k : {"p50", "p99", "max"}) EXPECT_TRUE(j["jitter_us"].contains(k)) << k;
+  for (const char* st : {"input", "collision", "integration", "publish"}) {
+    ASSERT_TRUE(j["stage_us"].contains(st)) << st;
+    EXPECT_TRUE(j["stage_us"][st].contains("p99")) << st;
+  }
+  EXPECT_EQ(j["ticks"], 12);
+  EXPECT_EQ(j["devices"], 2);
+  EXPECT_EQ(j["viewers"], 0);
+}
+
+}  // namespace
+}  // namespace sculpt::loop
