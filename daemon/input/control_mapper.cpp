@@ -1,0 +1,109 @@
+#include "input/control_mapper.hpp"
+
+#include <linux/input.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstdint>
+
+namespace sculpt::input {
+namespace {
+constexpr std::int32_t kNoValue = INT32_MIN;
+}  // namespace
+
+ControlMapper::ControlMapper(std::size_t tools) : tools_(std::min(tools, kMaxTools)) {}
+
+void ControlMapper::apply(const InputMessage& m) {
+  if (m.slot >= kMaxDevices) return;
+  DeviceState& d = devices_[m.slot];
+  switch (m.kind) {
+    case MessageKind::attach:
+      d = DeviceState{};
+      d.attached = true;
+      d.binding = m.binding;
+      d.raw.fill(kNoValue);  // the first event of each axis always counts
+      break;
+    case MessageKind::detach:
+      // Sticks of a device that is gone read as centred, buttons as released
+      // (a grab does not stay stuck on through an unplug).
+      d = DeviceState{};
+      break;
+    case MessageKind::frame:
+      if (!d.attached) return;
+      for (std::size_t i = 0; i < m.frame.count && i < kMaxFrameEvents; ++i) apply_event(d, m.frame.events[i]);
+      break;
+  }
+  recompute();
+}
+
+std::size_t ControlMapper::drain(concurrency::SpscRing<InputMessage>& ring, std::uint64_t tick) {
+  std::size_t n = 0;
+  while (const InputMessage* m = ring.peek()) {
+    if (m->at_tick != 0 && m->at_tick > tick) break;
+    apply(*m);
+    ring.pop();
+    ++n;
+  }
+  return n;
+}
+
+void ControlMapper::apply_event(DeviceState& d, const InputEvent& e) {
+  const DeviceBinding& b = d.binding;
+  if (e.type == EV_ABS) {
+    for (std::size_t i = 0; i < b.axis_count; ++i) {
+      if (b.axes[i].code != e.code) continue;
+      const AxisCalibration& c = b.axes[i].calibration;
+      if (!c.moved(d.raw[i], e.value)) continue;
+      d.raw[i] = e.value;
+      d.value[i] = c.normalize(e.value) * b.axes[i].scale;
+    }
+  } else if (e.type == EV_KEY) {
+    for (std::size_t i = 0; i < b.button_count; ++i) {
+      if (b.buttons[i].code != e.code) continue;
+      const bool down = e.value != 0;  // 2 = autorepeat: still held, not a new press
+      const bool press = down && !d.held[i];
+      d.held[i] = down;
+      const std::uint8_t t = b.buttons[i].tool;
+      if (!press || t >= tools_) continue;
+      switch (b.buttons[i].action) {
+        case ButtonAction::shape: ++controls_[t].shape_toggles; break;
+        case ButtonAction::grow: ++controls_[t].size_steps; break;
+        case ButtonAction::shrink: --controls_[t].size_steps; break;
+        default: break;
+      }
+    }
+  }
+}
+
+void ControlMapper::recompute() {
+  // Counters are kept; everything else is rebuilt from the device states:
+  // at most kMaxDevices × (axes + buttons) steps, no allocation.
+  for (std::size_t t = 0; t < tools_; ++t) {
+    controls_[t].stick = {0.0f, 0.0f, 0.0f};
+    controls_[t].grab = false;
+    controls_[t].connected = false;
+  }
+  for (const DeviceState& d : devices_) {
+    if (!d.attached) continue;
+    const DeviceBinding& b = d.binding;
+    for (std::size_t t = 0; t < tools_; ++t)
+      if (b.drives(t)) controls_[t].connected = true;
+    for (std::size_t i = 0; i < b.axis_count; ++i) {
+      const AxisBinding& a = b.axes[i];
+      if (a.tool >= tools_ || a.component > 2) continue;
+      controls_[a.tool].stick[a.component] += d.value[i];
+    }
+    for (std::size_t i = 0; i < b.button_count; ++i) {
+      const ButtonBinding& k = b.buttons[i];
+      if (k.tool >= tools_ || !d.held[i]) continue;
+      ToolControl& c = controls_[k.tool];
+      if (k.action == ButtonAction::grab) c.grab = true;
+      else if (k.action == ButtonAction::depth_plus) c.stick[2] += 1.0f;
+      else if (k.action == ButtonAction::depth_minus) c.stick[2] -= 1.0f;
+    }
+  }
+  for (std::size_t t = 0; t < tools_; ++t)
+    for (float& s : controls_[t].stick) s = std::clamp(s, -1.0f, 1.0f);
+}
+
+}  // namespace sculpt::input

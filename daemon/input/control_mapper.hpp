@@ -1,0 +1,57 @@
+// The simulation thread's view of the controls: applies attach, detach and
+// frame messages and keeps, per tool slot, the stick deflection (calibrated,
+// dead zone applied), grab and the monotonic button counters. No allocation,
+// no locks, no syscalls after construction.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "concurrency/spsc_ring.hpp"
+#include "input/input_message.hpp"
+
+namespace sculpt::input {
+
+struct ToolControl {
+  std::array<float, 3> stick{};     // -1..1 after calibration and dead zone: x, y, depth
+  bool grab = false;
+  std::uint32_t shape_toggles = 0;  // presses so far (monotonic: the driver sees every press)
+  std::int32_t size_steps = 0;      // grow presses minus shrink presses so far
+  bool connected = false;           // some attached device drives this tool
+};
+
+class ControlMapper {
+ public:
+  explicit ControlMapper(std::size_t tools = kMaxTools);
+
+  void apply(const InputMessage& message);
+
+  // Applies every message at the front of the ring that is due at `tick`
+  // (at_tick == 0 or at_tick <= tick), in order; stops at the first one that
+  // is not due yet. Returns how many were applied.
+  std::size_t drain(concurrency::SpscRing<InputMessage>& ring, std::uint64_t tick);
+
+  std::span<const ToolControl> controls() const { return {controls_.data(), tools_}; }
+  std::size_t tools() const { return tools_; }
+  bool attached(std::uint8_t slot) const { return slot < kMaxDevices && devices_[slot].attached; }
+  // The binding of a slot (for the haptics' stick plane), valid while attached.
+  const DeviceBinding& binding(std::uint8_t slot) const { return devices_[slot % kMaxDevices].binding; }
+
+ private:
+  struct DeviceState {
+    bool attached = false;
+    DeviceBinding binding{};
+    std::array<std::int32_t, kMaxBoundAxes> raw{};
+    std::array<float, kMaxBoundAxes> value{};
+    std::array<bool, kMaxBoundButtons> held{};
+  };
+  void apply_event(DeviceState& d, const InputEvent& e);
+  void recompute();
+
+  std::size_t tools_;
+  std::array<DeviceState, kMaxDevices> devices_{};
+  std::array<ToolControl, kMaxTools> controls_{};
+};
+
+}  // namespace sculpt::input
