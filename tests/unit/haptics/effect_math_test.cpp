@@ -1,0 +1,138 @@
+// Force → FF effect maths: directions in every quadrant (the Linux convention,
+// checked against the memoryless driver's inverse), dead band, scaling and
+// clamping, projection through the stick's mapping, rumble from impulse.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "haptics/effect_math.hpp"
+
+namespace sculpt::haptics {
+namespace {
+
+const ForceScale kScale{/*full_scale_newton=*/2.0, /*dead_band_newton=*/0.05, /*max_level=*/0x7fff};
+
+TEST(ConstantFromForce, CardinalDirectionsFollowLinuxConvention) {
+  // The stick is pushed up (y < 0): the force comes from below: 0x0000 "down".
+  EXPECT_EQ(constant_from_force({0, -1}, kScale).direction, 0x0000);
+  // Pushed right (x > 0): comes from the left: 0x4000.
+  EXPECT_EQ(constant_from_force({1, 0}, kScale).direction, 0x4000);
+  // Pushed down (y > 0, towards the user): comes from above: 0x8000.
+  EXPECT_EQ(constant_from_force({0, 1}, kScale).direction, 0x8000);
+  // Pushed left: comes from the right: 0xC000.
+  EXPECT_EQ(constant_from_force({-1, 0}, kScale).direction, 0xC000);
+}
+
+TEST(ConstantFromForce, EachQuadrantDiagonal) {
+  EXPECT_EQ(constant_from_force({1, -1}, kScale).direction, 0x2000);   // up-right
+  EXPECT_EQ(constant_from_force({1, 1}, kScale).direction, 0x6000);    // down-right
+  EXPECT_EQ(constant_from_force({-1, 1}, kScale).direction, 0xA000);   // down-left
+  EXPECT_EQ(constant_from_force({-1, -1}, kScale).direction, 0xE000);  // up-left
+}
+
+TEST(ConstantFromForce, InverseOfTheMemorylessDriverInEveryDirection) {
+  // ff-memless plays (θ, L) as x = L·sin θ, y = −L·cos θ; our command must
+  // point the played force where we wanted it.
+  for (int deg = 0; deg < 360; deg += 7) {
+    const double a = deg * M_PI / 180.0;
+    const StickForce want{1.5 * std::cos(a), 1.5 * std::sin(a)};
+    const ConstantCommand c = constant_from_force(want, kScale);
+    const StickForce played = force_from_constant(c);
+    const double cosine = (played.x * want.x + played.y * want.y) /
+                          (std::hypot(played.x, played.y) * std::hypot(want.x, want.y));
+    EXPECT_GT(cosine, 0.99999) << deg << " degrees";
+  }
+}
+
+TEST(ConstantFromForce, LevelScalesThenClamps) {
+  EXPECT_EQ(constant_from_force({1.0, 0}, kScale).level, 16384);  // half of full scale (rounded)
+  EXPECT_EQ(constant_from_force({2.0, 0}, kScale).level, 0x7fff);
+  EXPECT_EQ(constant_from_force({50.0, 0}, kScale).level, 0x7fff);
+  EXPECT_EQ(constant_from_force({0, -1e9}, kScale).level, 0x7fff);
+  ForceScale capped = kScale;
+  capped.max_level = 10000;
+  EXPECT_EQ(constant_from_force({5.0, 0}, capped).level, 10000);
+  capped.max_level = 1e9;  // never beyond what the kernel takes
+  EXPECT_EQ(constant_from_force({5.0, 0}, capped).level, 0x7fff);
+}
+
+TEST(ConstantFromForce, DeadBandGivesZero) {
+  EXPECT_EQ(constant_from_force({0.03, 0.03}, kScale), ConstantCommand{});  // |f| = 0.042 < 0.05
+  EXPECT_GT(constant_from_force({0.04, 0.04}, kScale).level, 0);           // |f| = 0.057
+  EXPECT_EQ(constant_from_force({0, 0}, kScale), ConstantCommand{});
+}
+
+TEST(ConstantFromForce, NonFiniteOrBadScaleGivesZero) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(constant_from_force({nan, 1}, kScale), ConstantCommand{});
+  EXPECT_EQ(constant_from_force({inf, 1}, kScale), ConstantCommand{});
+  ForceScale bad = kScale;
+  bad.full_scale_newton = 0;
+  EXPECT_EQ(constant_from_force({1, 1}, bad), ConstantCommand{});
+}
+
+TEST(ProjectToStick, PicksTheDrivenAxesWithTheirSigns) {
+  const std::array<double, 3> f{1.0, 2.0, 3.0};
+  const StickForce a = project_to_stick(f, StickPlane{0, 2, 1.0, 1.0});
+  EXPECT_DOUBLE_EQ(a.x, 1.0);
+  EXPECT_DOUBLE_EQ(a.y, 3.0);
+  // Stick forward (y negative) drives the tool along +z: y_sign −1.
+  const StickForce b = project_to_stick(f, StickPlane{1, 2, -1.0, -1.0});
+  EXPECT_DOUBLE_EQ(b.x, -2.0);
+  EXPECT_DOUBLE_EQ(b.y, -3.0);
+  // An axis that drives nothing feels nothing.
+  const StickForce c = project_to_stick(f, StickPlane{-1, 0, 1.0, 1.0});
+  EXPECT_DOUBLE_EQ(c.x, 0.0);
+  EXPECT_DOUBLE_EQ(c.y, 1.0);
+  const StickForce d = project_to_stick({std::nan(""), 0, 0}, StickPlane{0, 1, 1.0, 1.0});
+  EXPECT_DOUBLE_EQ(d.x, 0.0);
+  EXPECT_DOUBLE_EQ(d.y, 0.0);
+}
+
+TEST(ProjectToStick, ResistanceIsFeltAgainstTheMotion) {
+  // Tool pushed into a wall along +x: the mesh pushes back along −x; the stick
+  // that moved right is pushed left (direction 0xC000, the force comes from the right).
+  const StickForce s = project_to_stick({-1.0, 0, 0}, StickPlane{0, 2, 1.0, 1.0});
+  EXPECT_EQ(constant_from_force(s, kScale).direction, 0xC000);
+}
+
+TEST(RumbleFromImpulse, ScalesClampsAndIgnoresTinyOnes) {
+  const RumbleScale scale{/*full_scale_impulse=*/0.02, /*min_impulse=*/1e-5, /*weak_ratio=*/0.5, 60};
+  const RumbleCommand half = rumble_from_impulse(0.01, scale);
+  EXPECT_EQ(half.strong, 32768);
+  EXPECT_EQ(half.weak, 16384);
+  EXPECT_EQ(half.length_ms, 60);
+  const RumbleCommand full = rumble_from_impulse(5.0, scale);
+  EXPECT_EQ(full.strong, 0xffff);
+  EXPECT_EQ(full.weak, 32768);
+  EXPECT_FALSE(rumble_from_impulse(1e-6, scale).any());
+  EXPECT_FALSE(rumble_from_impulse(0, scale).any());
+  EXPECT_FALSE(rumble_from_impulse(-1, scale).any());
+  EXPECT_FALSE(rumble_from_impulse(std::nan(""), scale).any());
+  // Just above the threshold: still a (faint) kick, never a zero one.
+  EXPECT_GE(rumble_from_impulse(1.1e-5, scale).strong, 1);
+}
+
+TEST(IsRealChange, LevelStepDirectionStepAndZero) {
+  const ChangeThreshold t{256, 0x200};
+  const ConstantCommand base{10000, 0x4000};
+  EXPECT_FALSE(is_real_change(base, base, t));
+  EXPECT_FALSE(is_real_change(base, {10255, 0x4000}, t));
+  EXPECT_TRUE(is_real_change(base, {10256, 0x4000}, t));
+  EXPECT_TRUE(is_real_change(base, {9744, 0x4000}, t));
+  EXPECT_FALSE(is_real_change(base, {10000, 0x41ff}, t));
+  EXPECT_TRUE(is_real_change(base, {10000, 0x4200}, t));
+  // Direction wraps around 0.
+  EXPECT_FALSE(is_real_change({10000, 0xff00}, {10000, 0x0080}, t));
+  EXPECT_TRUE(is_real_change({10000, 0xff00}, {10000, 0x0100}, t));
+  // To and from zero is always a change, however small the level.
+  EXPECT_TRUE(is_real_change({0, 0}, {1, 0x4000}, t));
+  EXPECT_TRUE(is_real_change({1, 0x4000}, {0, 0}, t));
+  // Both zero: nothing to send.
+  EXPECT_FALSE(is_real_change({0, 0}, {0, 0}, t));
+}
+
+}  // namespace
+}  // namespace sculpt::haptics

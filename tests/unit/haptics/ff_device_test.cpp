@@ -1,0 +1,246 @@
+// The upload state machine against a fake device: id −1 once then the same
+// id, play once, gain, EINVAL / ENOSPC fallbacks, ff_effects_max = 1,
+// rumble-only and no-FF devices, stop + erase on shutdown, forget on unplug.
+#include <gtest/gtest.h>
+
+#include "fake_port.hpp"
+#include "haptics/ff_device.hpp"
+
+namespace sculpt::haptics {
+namespace {
+
+using testing::FakeDeviceState;
+using testing::FakePort;
+using testing::fake_device;
+using Call = FakeDeviceState::Call;
+
+std::unique_ptr<FfDevice> make(const std::shared_ptr<FakeDeviceState>& s, FfCounters* c = nullptr,
+                               FfDeviceOptions o = {}) {
+  return std::make_unique<FfDevice>(std::make_unique<FakePort>(s), o, c);
+}
+
+bool has_write(const FakeDeviceState& s, int code, int value) {
+  for (const auto& c : s.of(Call::write))
+    if (c.id == code && c.value == value) return true;
+  return false;
+}
+
+TEST(FfDevice, UploadsWithMinusOneOnceThenUpdatesInPlace) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16);
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  EXPECT_EQ(dev->mode(), FfMode::constant);
+  ASSERT_TRUE(dev->set_constant({1000, 0x4000}));
+  const std::int16_t id = dev->constant_id();
+  EXPECT_GE(id, 0);
+  for (int i = 1; i <= 100; ++i) ASSERT_TRUE(dev->set_constant({static_cast<std::int16_t>(1000 + i * 10), 0x8000}));
+  const auto ups = s->of(Call::upload);
+  ASSERT_EQ(ups.size(), 101u);
+  EXPECT_EQ(ups[0].effect.id, -1);            // asked for a new slot once
+  for (std::size_t i = 1; i < ups.size(); ++i) EXPECT_EQ(ups[i].effect.id, id);  // then in place
+  EXPECT_EQ(ups.back().effect.type, FF_CONSTANT);
+  EXPECT_EQ(ups.back().effect.u.constant.level, 2000);
+  EXPECT_EQ(ups.back().effect.direction, 0x8000);
+  EXPECT_EQ(ups.back().effect.replay.length, 0);  // plays until stopped
+  EXPECT_EQ(s->live(), 1);                    // one slot, however many updates
+  EXPECT_EQ(counters.uploads.load(), 101u);
+  EXPECT_EQ(counters.live_effects.load(), 1);
+  EXPECT_EQ(counters.errors.load(), 0u);
+  // Started once, right after the first upload.
+  int plays = 0;
+  for (const auto& w : s->of(Call::write)) plays += (w.id == id && w.value == 1);
+  EXPECT_EQ(plays, 1);
+}
+
+TEST(FfDevice, SetsGainWhenSupported) {
+  auto s = fake_device({FF_CONSTANT, FF_GAIN}, 16);
+  FfDeviceOptions o;
+  o.gain = 0xc000;
+  auto dev = make(s, nullptr, o);
+  EXPECT_TRUE(has_write(*s, FF_GAIN, 0xc000));
+  dev->set_gain(0x4000);
+  EXPECT_TRUE(has_write(*s, FF_GAIN, 0x4000));
+
+  auto no_gain = fake_device({FF_CONSTANT}, 16);
+  auto dev2 = make(no_gain);
+  EXPECT_TRUE(no_gain->of(Call::write).empty());
+}
+
+TEST(FfDevice, RumbleKickUsesItsOwnSlotInPlace) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  ASSERT_TRUE(dev->kick({0x8000, 0x4000, 60}));
+  ASSERT_TRUE(dev->kick({0xffff, 0x8000, 60}));
+  EXPECT_GE(dev->rumble_id(), 0);
+  EXPECT_NE(dev->rumble_id(), dev->constant_id());
+  const auto ups = s->of(Call::upload);
+  ASSERT_EQ(ups.size(), 3u);
+  EXPECT_EQ(ups[1].effect.type, FF_RUMBLE);
+  EXPECT_EQ(ups[1].effect.id, -1);
+  EXPECT_EQ(ups[2].effect.id, dev->rumble_id());
+  EXPECT_EQ(ups[2].effect.u.rumble.strong_magnitude, 0xffff);
+  EXPECT_EQ(ups[2].effect.replay.length, 60);
+  int plays = 0;
+  for (const auto& w : s->of(Call::write)) plays += (w.id == dev->rumble_id() && w.value == 1);
+  EXPECT_EQ(plays, 2);  // each kick plays once
+  EXPECT_EQ(counters.kicks.load(), 2u);
+  EXPECT_EQ(s->live(), 2);
+}
+
+TEST(FfDevice, EinvalOnAnUpdateMeansTheIdVanished) {
+  auto s = fake_device({FF_CONSTANT}, 16);
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  // Someone erased it behind our back: the kernel now refuses the id.
+  s->used[static_cast<std::size_t>(dev->constant_id())] = false;
+  ASSERT_TRUE(dev->set_constant({2000, 0}));
+  const auto ups = s->of(Call::upload);
+  ASSERT_EQ(ups.size(), 3u);
+  EXPECT_EQ(ups[1].result, EINVAL);
+  EXPECT_EQ(ups[2].effect.id, -1);  // started over
+  EXPECT_EQ(ups[2].result, 0);
+  EXPECT_EQ(counters.errors.load(), 1u);
+  EXPECT_EQ(counters.live_effects.load(), 1);
+  EXPECT_EQ(s->live(), 1);
+}
+
+TEST(FfDevice, EinvalOnANewConstantFallsBackToRumble) {
+  // Claims FF_CONSTANT but refuses it.
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  s->upload_errors = {EINVAL};
+  auto dev = make(s);
+  EXPECT_FALSE(dev->set_constant({1000, 0}));
+  EXPECT_EQ(dev->mode(), FfMode::rumble_only);
+  EXPECT_FALSE(dev->set_constant({1000, 0}));  // no more constant uploads
+  EXPECT_EQ(s->of(Call::upload).size(), 1u);
+  EXPECT_TRUE(dev->kick({0x8000, 0x8000, 60}));
+}
+
+TEST(FfDevice, EnospcForTheConstantTakesTheRumbleSlot) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 2);
+  auto dev = make(s);
+  ASSERT_TRUE(dev->kick({0x8000, 0x8000, 60}));
+  s->used[1] = true;  // another client holds the other slot
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  EXPECT_GE(dev->constant_id(), 0);
+  EXPECT_EQ(dev->rumble_id(), -1);
+  EXPECT_FALSE(dev->rumble_allowed());
+  const auto erases = s->of(Call::erase);
+  ASSERT_EQ(erases.size(), 1u);
+  EXPECT_TRUE(has_write(*s, erases[0].id, 0));  // stopped before erased
+}
+
+TEST(FfDevice, EnospcWithNothingToGiveUpIsRetriedLater) {
+  auto s = fake_device({FF_CONSTANT}, 1);
+  s->used[0] = true;  // someone else has the only slot
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  EXPECT_FALSE(dev->set_constant({1000, 0}));
+  EXPECT_EQ(counters.errors.load(), 1u);
+  EXPECT_EQ(dev->mode(), FfMode::constant);
+  s->used[0] = false;
+  EXPECT_TRUE(dev->set_constant({1000, 0}));
+}
+
+TEST(FfDevice, OneSlotBelongsToTheConstant) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 1);
+  auto dev = make(s);
+  EXPECT_EQ(dev->mode(), FfMode::constant);
+  EXPECT_FALSE(dev->rumble_allowed());
+  EXPECT_FALSE(dev->kick({0x8000, 0x8000, 60}));
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  EXPECT_EQ(s->of(Call::upload).size(), 1u);
+}
+
+TEST(FfDevice, OneSlotRumbleOnlyPadKicks) {
+  auto s = fake_device({FF_RUMBLE}, 1);
+  auto dev = make(s);
+  EXPECT_EQ(dev->mode(), FfMode::rumble_only);
+  EXPECT_TRUE(dev->rumble_allowed());
+  EXPECT_TRUE(dev->kick({0x8000, 0x8000, 60}));
+  EXPECT_TRUE(dev->kick({0x8000, 0x8000, 60}));
+  EXPECT_EQ(s->live(), 1);
+}
+
+TEST(FfDevice, RumbleOnlyPadNeverGetsAConstant) {
+  auto s = fake_device({FF_RUMBLE, FF_GAIN}, 16);
+  auto dev = make(s);
+  EXPECT_EQ(dev->mode(), FfMode::rumble_only);
+  EXPECT_FALSE(dev->set_constant({1000, 0}));
+  EXPECT_TRUE(s->of(Call::upload).empty());
+}
+
+TEST(FfDevice, NoFfMeansInputOnly) {
+  auto s = fake_device({}, 0);
+  auto dev = make(s);
+  EXPECT_EQ(dev->mode(), FfMode::none);
+  EXPECT_FALSE(dev->set_constant({1000, 0}));
+  EXPECT_FALSE(dev->kick({1, 1, 1}));
+  EXPECT_TRUE(s->calls.empty());
+}
+
+TEST(FfDevice, OptionsCanTurnEitherEffectOff) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  FfDeviceOptions o;
+  o.constant = false;
+  EXPECT_EQ(make(s, nullptr, o)->mode(), FfMode::rumble_only);
+  o = {};
+  o.rumble = false;
+  auto dev = make(s, nullptr, o);
+  EXPECT_EQ(dev->mode(), FfMode::constant);
+  EXPECT_FALSE(dev->rumble_allowed());
+}
+
+TEST(FfDevice, ShutdownStopsAndErasesEverything) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  ASSERT_TRUE(dev->kick({1000, 1000, 60}));
+  const std::int16_t c = dev->constant_id(), r = dev->rumble_id();
+  dev->shutdown();
+  EXPECT_TRUE(has_write(*s, c, 0));
+  EXPECT_TRUE(has_write(*s, r, 0));
+  const auto erases = s->of(Call::erase);
+  ASSERT_EQ(erases.size(), 2u);
+  EXPECT_EQ(s->live(), 0);
+  EXPECT_EQ(counters.live_effects.load(), 0);
+  // Nothing more after a shutdown; a second one does nothing.
+  const auto n = s->calls.size();
+  EXPECT_FALSE(dev->set_constant({5, 0}));
+  dev->shutdown();
+  EXPECT_EQ(s->calls.size(), n);
+}
+
+TEST(FfDevice, DestructorErasesThenCloses) {
+  auto s = fake_device({FF_CONSTANT}, 16);
+  {
+    auto dev = make(s);
+    ASSERT_TRUE(dev->set_constant({1000, 0}));
+  }
+  EXPECT_EQ(s->of(Call::erase).size(), 1u);
+  EXPECT_EQ(s->live(), 0);
+  EXPECT_TRUE(s->closed);
+}
+
+TEST(FfDevice, UnplugIsSeenAndForgetIssuesNothing) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  FfCounters counters;
+  auto dev = make(s, &counters);
+  ASSERT_TRUE(dev->set_constant({1000, 0}));
+  s->unplugged = true;
+  EXPECT_FALSE(dev->set_constant({3000, 0}));
+  EXPECT_TRUE(dev->gone());
+  const auto n = s->calls.size();
+  dev->forget();
+  EXPECT_EQ(dev->constant_id(), -1);
+  EXPECT_EQ(counters.live_effects.load(), 0);
+  dev.reset();
+  EXPECT_EQ(s->calls.size(), n);  // no stop, no erase to a dead node
+}
+
+}  // namespace
+}  // namespace sculpt::haptics
