@@ -1,0 +1,62 @@
+#include "main/cli.hpp"
+
+namespace sculpt::daemon {
+namespace {
+
+// CLI11 2.1 binds plain values; these keep "was it given" next to the value.
+template <class T>
+void optional_option(CLI::App& app, const std::string& name, std::optional<T>& out, const std::string& help) {
+  app.add_option_function<T>(name, [&out](const T& value) { out = value; }, help);
+}
+
+}  // namespace
+
+void add_options(CLI::App& app, CliOptions& o) {
+  app.add_option_function<std::string>(
+         "-c,--config", [&o](const std::string& p) { o.config = p; o.config_given = true; },
+         "config file (TOML; default /etc/sculptd/sculptd.conf, which may be absent)")
+      ->type_name("PATH");
+  optional_option(app, "--scene", o.scene, "scene file (TOML), or builtin:default (the default)");
+  optional_option(app, "--socket", o.socket, "control/streaming socket path (default /run/sculptd/sculptd.sock)");
+  optional_option(app, "--rate", o.rate_hz, "simulation rate in Hz (default: the scene's, 1000)");
+  optional_option(app, "--input", o.input, "auto | evdev | replay:FILE (default auto)");
+  optional_option(app, "--input-clock", o.input_clock,
+                  "arrival | device: schedule live input by arrival or by the device's MSC_TIMESTAMP");
+  optional_option(app, "--input-delay", o.input_delay_ms, "ms added to device time with --input-clock device (50)");
+  optional_option(app, "--duration", o.duration_s, "exit cleanly after this many seconds of simulation");
+  app.add_flag("--realtime", o.realtime, "SCHED_FIFO + mlockall for the sim thread, when permitted");
+  optional_option(app, "--stats-json", o.stats_json, "write the stats as JSON to FILE at exit");
+  optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit");
+  optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)");
+  app.add_flag("--check", o.check, "check the config and the scene, then exit");
+}
+
+void CliOptions::apply(DaemonConfig& c) const {
+  if (scene) c.scene = *scene;
+  if (socket) c.socket = *socket;
+  if (rate_hz) {
+    if (!(*rate_hz >= 1.0 && *rate_hz <= 100000.0)) throw ConfigError("--rate: must be within [1, 100000] Hz");
+    c.rate_hz = *rate_hz;
+  }
+  if (input) c.input = parse_input_spec(*input, "--input");
+  if (input_clock) {
+    if (*input_clock == "arrival") c.input_clock = InputClock::arrival;
+    else if (*input_clock == "device") c.input_clock = InputClock::device;
+    else throw ConfigError("--input-clock: must be arrival or device, not \"" + *input_clock + "\"");
+  }
+  if (input_delay_ms) {
+    if (!(*input_delay_ms >= 0 && *input_delay_ms <= 10000)) throw ConfigError("--input-delay: must be within [0, 10000] ms");
+    c.input_delay_ms = *input_delay_ms;
+  }
+  if (duration_s) {
+    if (!(*duration_s >= 0 && *duration_s <= 1e9)) throw ConfigError("--duration: must be >= 0 seconds");
+    c.duration_s = *duration_s;
+  }
+  if (realtime) c.realtime = true;
+  if (stats_json) c.stats_json = *stats_json;
+  if (hash_out) c.hash_out = *hash_out;
+  if (log_level && !log::parse_level(*log_level, c.log_level))
+    throw ConfigError("--log-level: must be error, warning, notice, info or debug, not \"" + *log_level + "\"");
+}
+
+}  // namespace sculpt::daemon

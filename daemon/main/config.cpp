@@ -1,0 +1,215 @@
+#include "main/config.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+namespace sculpt::daemon {
+namespace {
+
+using Path = std::filesystem::path;
+
+std::string where(const Path& file, const toml::node& node) {
+  const auto& src = node.source();
+  return fmt::format("{}:{}", file.string(), src.begin.line);
+}
+
+[[noreturn]] void fail(const Path& file, const toml::node& node, std::string_view key, std::string_view msg) {
+  throw ConfigError(fmt::format("{}: {}: {}", where(file, node), key, msg));
+}
+
+void check_keys(const Path& file, const toml::table& table, std::string_view section,
+                const std::set<std::string_view>& known) {
+  for (const auto& [k, v] : table) {
+    if (!known.count(k.str())) {
+      std::string list;
+      for (auto n : known) list += (list.empty() ? "" : ", ") + std::string(n);
+      fail(file, v, fmt::format("{}{}{}", section, section.empty() ? "" : ".", k.str()),
+           fmt::format("unknown key (known: {})", list));
+    }
+  }
+}
+
+// Typed readers: absent → leave `out` alone; wrong type or range → ConfigError.
+struct Reader {
+  const Path& file;
+  const toml::table& table;
+  std::string section;
+
+  std::string name(std::string_view key) const { return section + "." + std::string(key); }
+
+  bool get(std::string_view key, std::string& out) const {
+    const toml::node* n = table.get(key);
+    if (!n) return false;
+    if (!n->is_string()) fail(file, *n, name(key), "must be a string");
+    out = n->as_string()->get();
+    return true;
+  }
+  bool get(std::string_view key, bool& out) const {
+    const toml::node* n = table.get(key);
+    if (!n) return false;
+    if (!n->is_boolean()) fail(file, *n, name(key), "must be true or false");
+    out = n->as_boolean()->get();
+    return true;
+  }
+  bool get(std::string_view key, double& out, double lo, double hi) const {
+    const toml::node* n = table.get(key);
+    if (!n) return false;
+    double v;
+    if (n->is_integer()) v = static_cast<double>(n->as_integer()->get());
+    else if (n->is_floating_point()) v = n->as_floating_point()->get();
+    else fail(file, *n, name(key), "must be a number");
+    if (!std::isfinite(v) || v < lo || v > hi) fail(file, *n, name(key), fmt::format("must be within [{}, {}]", lo, hi));
+    out = v;
+    return true;
+  }
+  bool get(std::string_view key, int& out, int lo, int hi) const {
+    const toml::node* n = table.get(key);
+    if (!n) return false;
+    if (!n->is_integer()) fail(file, *n, name(key), "must be an integer");
+    const auto v = n->as_integer()->get();
+    if (v < lo || v > hi) fail(file, *n, name(key), fmt::format("must be within [{}, {}]", lo, hi));
+    out = static_cast<int>(v);
+    return true;
+  }
+  bool get_ms(std::string_view key, std::chrono::milliseconds& out, int lo, int hi) const {
+    int v = static_cast<int>(out.count());
+    if (!get(key, v, lo, hi)) return false;
+    out = std::chrono::milliseconds(v);
+    return true;
+  }
+};
+
+const toml::table* sub_table(const Path& file, const toml::table& root, std::string_view key) {
+  const toml::node* n = root.get(key);
+  if (!n) return nullptr;
+  if (!n->is_table()) fail(file, *n, key, "must be a table ([" + std::string(key) + "])");
+  return n->as_table();
+}
+
+void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
+  check_keys(file, t, "daemon",
+             {"scene", "socket", "rate_hz", "input", "input_clock", "input_delay_ms", "duration", "realtime",
+              "realtime_priority", "log_level", "stats_json", "hash_out", "watchdog_fraction"});
+  const Reader r{file, t, "daemon"};
+  r.get("scene", c.scene);
+  r.get("socket", c.socket);
+  double rate = 0;
+  if (r.get("rate_hz", rate, 1.0, 100000.0)) c.rate_hz = rate;
+  std::string s;
+  if (r.get("input", s)) {
+    try {
+      c.input = parse_input_spec(s, "daemon.input");
+    } catch (const ConfigError& e) {
+      fail(file, *t.get("input"), "daemon.input", e.what());
+    }
+  }
+  if (r.get("input_clock", s)) {
+    if (s == "arrival") c.input_clock = InputClock::arrival;
+    else if (s == "device") c.input_clock = InputClock::device;
+    else fail(file, *t.get("input_clock"), "daemon.input_clock", "must be \"arrival\" or \"device\"");
+  }
+  r.get("input_delay_ms", c.input_delay_ms, 0.0, 10000.0);
+  r.get("duration", c.duration_s, 0.0, 1e9);
+  r.get("realtime", c.realtime);
+  r.get("realtime_priority", c.realtime_priority, 1, 99);
+  if (r.get("log_level", s) && !log::parse_level(s, c.log_level))
+    fail(file, *t.get("log_level"), "daemon.log_level", "must be one of error, warning, notice, info, debug");
+  r.get("stats_json", c.stats_json);
+  r.get("hash_out", c.hash_out);
+  r.get("watchdog_fraction", c.watchdog_fraction, 0.05, 0.9);
+}
+
+void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
+  check_keys(file, t, "tools", {"margin", "size_step", "min_scale", "max_scale"});
+  const Reader r{file, t, "tools"};
+  r.get("margin", c.tool_margin, 0.0, 100.0);
+  r.get("size_step", c.size_step, 1.0001, 10.0);
+  r.get("min_scale", c.min_scale, 1e-3, 1.0);
+  r.get("max_scale", c.max_scale, 1.0, 1000.0);
+}
+
+void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
+  check_keys(file, t, "haptics",
+             {"enabled", "poll_interval_ms", "min_upload_interval_ms", "gain", "constant", "rumble_on_onset",
+              "full_scale_newton", "dead_band_newton", "max_level", "rumble_full_scale_impulse",
+              "rumble_min_impulse", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step"});
+  const Reader r{file, t, "haptics"};
+  auto& h = c.haptics;
+  r.get("enabled", h.enabled);
+  r.get_ms("poll_interval_ms", h.poll_interval, 1, 1000);
+  r.get_ms("min_upload_interval_ms", h.min_upload_interval, 0, 10000);
+  int gain = h.gain;
+  if (r.get("gain", gain, 0, 0xffff)) h.gain = static_cast<std::uint16_t>(gain);
+  r.get("constant", h.constant);
+  r.get("rumble_on_onset", h.rumble_on_onset);
+  r.get("full_scale_newton", h.force.full_scale_newton, 1e-6, 1e6);
+  r.get("dead_band_newton", h.force.dead_band_newton, 0.0, 1e6);
+  r.get("max_level", h.force.max_level, 0.0, 32767.0);
+  r.get("rumble_full_scale_impulse", h.rumble.full_scale_impulse, 1e-9, 1e6);
+  r.get("rumble_min_impulse", h.rumble.min_impulse, 0.0, 1e6);
+  r.get("rumble_weak_ratio", h.rumble.weak_ratio, 0.0, 1.0);
+  int len = h.rumble.length_ms;
+  if (r.get("rumble_length_ms", len, 1, 10000)) h.rumble.length_ms = static_cast<std::uint16_t>(len);
+  r.get("level_step", h.change.level_step, 0, 0x7fff);
+  r.get("direction_step", h.change.direction_step, 0, 0xffff);
+}
+
+}  // namespace
+
+InputSpec parse_input_spec(std::string_view text, std::string_view what) {
+  InputSpec s;
+  if (text == "auto") s.kind = InputSpec::Kind::automatic;
+  else if (text == "evdev") s.kind = InputSpec::Kind::evdev;
+  else if (text.substr(0, 7) == "replay:" && text.size() > 7) {
+    s.kind = InputSpec::Kind::replay;
+    s.replay = std::string(text.substr(7));
+  } else {
+    throw ConfigError(fmt::format("{}: \"{}\" is not an input; use auto, evdev or replay:FILE", what, text));
+  }
+  return s;
+}
+
+std::string to_string(const InputSpec& spec) {
+  switch (spec.kind) {
+    case InputSpec::Kind::automatic: return "auto";
+    case InputSpec::Kind::evdev: return "evdev";
+    case InputSpec::Kind::replay: return "replay:" + spec.replay.string();
+  }
+  return "?";
+}
+
+DaemonConfig parse_config(std::string_view text, const std::filesystem::path& file) {
+  toml::table root;
+  try {
+    root = toml::parse(text, file.string());
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(fmt::format("{}:{}: {}", file.string(), e.source().begin.line, e.description()));
+  }
+  DaemonConfig c;
+  c.file = file;
+  check_keys(file, root, "", {"daemon", "tools", "haptics", "input", "device"});
+  if (const toml::table* t = sub_table(file, root, "daemon")) read_daemon(file, *t, c);
+  if (const toml::table* t = sub_table(file, root, "tools")) read_tools(file, *t, c);
+  if (const toml::table* t = sub_table(file, root, "haptics")) read_haptics(file, *t, c);
+  // The input module reads its own keys ([input], [[device]]) from the root.
+  c.mapping_table = std::move(root);
+  return c;
+}
+
+DaemonConfig load_config(const std::filesystem::path& file, bool optional) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) {
+    std::error_code ec;
+    if (optional && !std::filesystem::exists(file, ec)) return DaemonConfig{};
+    throw ConfigError(fmt::format("{}: cannot read the config file", file.string()));
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_config(ss.str(), file);
+}
+
+}  // namespace sculpt::daemon

@@ -1,0 +1,79 @@
+#include "main/log.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdlib>
+
+namespace sculpt::log {
+namespace {
+
+std::atomic<int> g_level{static_cast<int>(Level::info)};
+// -1: decide from the environment at the first message.
+std::atomic<int> g_prefix{-1};
+
+bool use_prefix() {
+  int p = g_prefix.load(std::memory_order_relaxed);
+  if (p < 0) {
+    // journald (JOURNAL_STREAM) or a pipe/file: prefixes; a person at a terminal: words.
+    p = (std::getenv("JOURNAL_STREAM") != nullptr || !isatty(STDERR_FILENO)) ? 1 : 0;
+    g_prefix.store(p, std::memory_order_relaxed);
+  }
+  return p == 1;
+}
+
+}  // namespace
+
+void set_level(Level level) { g_level.store(static_cast<int>(level), std::memory_order_relaxed); }
+Level level() { return static_cast<Level>(g_level.load(std::memory_order_relaxed)); }
+void set_journal_prefix(bool on) { g_prefix.store(on ? 1 : 0, std::memory_order_relaxed); }
+
+bool parse_level(std::string_view name, Level& out) {
+  if (name == "err" || name == "error") out = Level::err;
+  else if (name == "warning" || name == "warn") out = Level::warning;
+  else if (name == "notice") out = Level::notice;
+  else if (name == "info") out = Level::info;
+  else if (name == "debug") out = Level::debug;
+  else return false;
+  return true;
+}
+
+std::string_view level_name(Level level) {
+  switch (level) {
+    case Level::err: return "error";
+    case Level::warning: return "warning";
+    case Level::notice: return "notice";
+    case Level::info: return "info";
+    case Level::debug: return "debug";
+  }
+  return "?";
+}
+
+void write(Level lvl, std::string_view message) {
+  if (static_cast<int>(lvl) > g_level.load(std::memory_order_relaxed)) return;
+  std::string line;
+  line.reserve(message.size() + 16);
+  if (use_prefix()) {
+    line += '<';
+    line += static_cast<char>('0' + static_cast<int>(lvl));
+    line += '>';
+  } else if (lvl != Level::info) {
+    line += level_name(lvl);
+    line += ": ";
+  }
+  // One message, one journal entry: embedded newlines would split it.
+  for (char c : message) line += c == '\n' ? ' ' : c;
+  line += '\n';
+  const char* p = line.data();
+  std::size_t left = line.size();
+  while (left > 0) {
+    const ssize_t n = ::write(STDERR_FILENO, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return;
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+}
+
+}  // namespace sculpt::log

@@ -1,0 +1,43 @@
+// What the sim thread does around World::step in sculptd: inputs due this
+// tick (ring → ControlMapper) → ToolDriver → tool poses; after the step,
+// each tool's contact force to the haptics' FeedbackBoard. Allocation-free
+// once constructed (tests/unit/loop checks it with a counting operator new).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+
+#include "concurrency/spsc_ring.hpp"
+#include "haptics/feedback_board.hpp"
+#include "input/control_mapper.hpp"
+#include "input/input_message.hpp"
+#include "loop/sim_thread.hpp"
+#include "loop/tool_driver.hpp"
+
+namespace sculpt::daemon {
+
+class SculptStages final : public loop::TickStages {
+ public:
+  // tools ≤ input::kMaxTools. The ring carries io → sim messages.
+  SculptStages(loop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity);
+
+  // io thread: the producer side of the input ring.
+  concurrency::SpscRing<input::InputMessage>& ring() { return ring_; }
+  // Messages applied so far (any thread; for tests and the stats).
+  std::uint64_t applied() const { return applied_.load(std::memory_order_relaxed); }
+
+  void input(std::uint64_t tick, std::span<sim::Tool> tools) override;
+  void publish(std::uint64_t tick, const sim::World<float>& world) override;
+
+  const loop::ToolDriver& driver() const { return driver_; }
+
+ private:
+  loop::ToolDriver driver_;
+  haptics::FeedbackBoard& board_;
+  concurrency::SpscRing<input::InputMessage> ring_;
+  input::ControlMapper mapper_;
+  std::atomic<std::uint64_t> applied_{0};
+};
+
+}  // namespace sculpt::daemon
