@@ -1,0 +1,365 @@
+// daemon/haptics against a kernel device: the uinput virtual joystick answers
+// the FF uploads our FfDevice / HapticsThread make through evdev, and records
+// them. Facts are waited on (flush(), wait_for()), never slept for; where the
+// test paces its own publisher it asserts counts, not timings.
+#include <gtest/gtest.h>
+
+#include <linux/input.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <thread>
+
+#include "haptics/ff_device.hpp"
+#include "haptics/haptics_thread.hpp"
+#include "support/evdev_client.hpp"
+#include "support/virtual_joystick.hpp"
+
+namespace sculpt::haptics {
+namespace {
+
+using namespace std::chrono_literals;
+using support::EvdevClient;
+using support::FfLog;
+using support::FfUpload;
+using support::JoystickSpec;
+using support::VirtualJoystick;
+
+const StickPlane kPlane{0, 2, 1.0, 1.0};
+
+sim::ToolFeedback contact(double fx, double fz, bool onset = false, double impulse = 0) {
+  sim::ToolFeedback f;
+  f.force = {fx, 0, fz};
+  f.contacts = 4;
+  f.onset = onset;
+  f.onset_impulse = impulse;
+  return f;
+}
+
+std::vector<FfUpload> uploads_of(const FfLog& log, std::uint16_t type) {
+  std::vector<FfUpload> out;
+  for (const auto& u : log.uploads)
+    if (u.effect.type == type) out.push_back(u);
+  return out;
+}
+bool played(const FfLog& log, std::int16_t id, std::int32_t value) {
+  for (const auto& p : log.playbacks)
+    if (p.id == id && p.value == value) return true;
+  return false;
+}
+bool erased(const FfLog& log, std::int16_t id) {
+  for (const auto& e : log.erases)
+    if (e.id == id && e.retval == 0) return true;
+  return false;
+}
+
+// Slots still free on the device, as the kernel counts them: another client
+// uploads until ENOSPC (its effects go when it closes).
+int free_slots(const std::string& node) {
+  EvdevClient other(node);
+  int n = 0;
+  for (;;) {
+    ff_effect e = support::rumble_effect(1, 1, 10);
+    const int err = other.upload(e);
+    if (err == ENOSPC) return n;
+    if (err != 0) return -err;
+    ++n;
+  }
+}
+
+HapticsSettings fast_settings() {
+  HapticsSettings s;
+  s.poll_interval = 2ms;
+  s.min_upload_interval = 20ms;
+  s.gain = 0xc000;
+  return s;
+}
+
+TEST(HapticsVm, FfDeviceUploadsOnceThenTenThousandUpdatesInPlace) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  joy.set_recording(false);  // 10 000 uploads: count them, keep no log
+  FfCounters counters;
+  {
+    auto dev = FfDevice::open(joy.event_node(), {}, &counters);
+    ASSERT_EQ(dev->mode(), FfMode::constant);
+    ASSERT_TRUE(dev->set_constant({100, 0x4000}));
+    const std::int16_t id = dev->constant_id();
+    ASSERT_GE(id, 0);
+    const int free_before = free_slots(joy.event_node());
+    for (int i = 0; i < 10000; ++i) {
+      const ConstantCommand c{static_cast<std::int16_t>(i % 0x7fff), static_cast<std::uint16_t>(i * 97)};
+      ASSERT_TRUE(dev->set_constant(c)) << "update " << i;
+      ASSERT_EQ(dev->constant_id(), id) << "update " << i;
+    }
+    EXPECT_EQ(free_slots(joy.event_node()), free_before);  // the slot count stayed flat
+    EXPECT_EQ(free_before, 15);
+    EXPECT_EQ(counters.uploads.load(), 10001u);
+    EXPECT_EQ(counters.errors.load(), 0u);
+  }
+  EXPECT_GE(joy.uploads_answered(), 10001u);
+  EXPECT_EQ(counters.live_effects.load(), 0);
+}
+
+TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !l.uploads.empty(); }));
+
+  // 10 000 sim ticks of a force that changes every tick, paced like a fast
+  // loop (a few per millisecond), read by the thread as it likes.
+  const auto start = std::chrono::steady_clock::now();
+  for (int tick = 0; tick < 10000; ++tick) {
+    const double a = tick * 0.003;
+    board.publish(0, contact(1.5 * std::sin(a), 1.5 * std::cos(a)));
+    if (tick % 4 == 3) std::this_thread::sleep_for(1ms);
+  }
+  haptics.flush();
+  const auto elapsed = std::chrono::steady_clock::now() - start;
+
+  const FfLog log = joy.log();
+  const auto constants = uploads_of(log, FF_CONSTANT);
+  ASSERT_GE(constants.size(), 2u);
+  EXPECT_FALSE(constants[0].old.has_value());  // exactly one new effect ...
+  const std::int16_t id = constants[0].id;
+  for (std::size_t i = 1; i < constants.size(); ++i) {  // ... then updates in place
+    ASSERT_TRUE(constants[i].old.has_value()) << i;
+    EXPECT_EQ(constants[i].id, id) << i;
+    EXPECT_EQ(constants[i].retval, 0);
+  }
+  // Paced: no more than one upload per min_upload_interval (+ the first).
+  const auto intervals = elapsed / 20ms;
+  EXPECT_LE(static_cast<long>(constants.size()), static_cast<long>(intervals) + 2);
+  EXPECT_LT(constants.size(), 10000u / 4);
+  EXPECT_TRUE(played(log, id, 1));
+  EXPECT_EQ(free_slots(joy.event_node()), 15);
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+  haptics.stop();
+}
+
+TEST(HapticsVm, ContactDirectionAndLevelReachTheDevice) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  board.publish(0, contact(-1.0, 0));  // pushed back along −x: the stick is pushed left
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    for (const auto& u : l.uploads)
+      if (u.effect.type == FF_CONSTANT && u.effect.u.constant.level == 16384) return true;
+    return false;
+  }));
+  const auto constants = uploads_of(joy.log(), FF_CONSTANT);
+  EXPECT_EQ(constants.back().effect.direction, 0xC000);
+  EXPECT_EQ(constants.back().effect.replay.length, 0);
+}
+
+TEST(HapticsVm, RumbleKickOnOnset) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  board.publish(0, contact(0.5, 0, /*onset=*/true, 0.01));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    const auto r = uploads_of(l, FF_RUMBLE);
+    return !r.empty() && played(l, r[0].id, 1);
+  }));
+  const auto rumbles = uploads_of(joy.log(), FF_RUMBLE);
+  ASSERT_EQ(rumbles.size(), 1u);
+  EXPECT_EQ(rumbles[0].effect.u.rumble.strong_magnitude, 32768);
+  EXPECT_GT(rumbles[0].effect.replay.length, 0);
+  EXPECT_NE(rumbles[0].id, uploads_of(joy.log(), FF_CONSTANT)[0].id);
+  EXPECT_EQ(haptics.stats().ff.kicks.load(), 1u);
+}
+
+TEST(HapticsVm, RumbleOnlyPadGetsKicksAndNoConstant) {
+  VirtualJoystick joy(JoystickSpec::rumble_pad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !uploads_of(l, FF_RUMBLE).empty(); }));
+  haptics.flush();
+  board.publish(0, contact(-1.0, 0));  // a force: nothing to render it with on this pad
+  haptics.flush();
+  haptics.flush();
+  const FfLog log = joy.log();
+  EXPECT_TRUE(uploads_of(log, FF_CONSTANT).empty());
+  EXPECT_EQ(uploads_of(log, FF_RUMBLE).size(), 1u);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+}
+
+TEST(HapticsVm, OneEffectSlotHoldsTheConstant) {
+  VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return uploads_of(l, FF_CONSTANT).size() >= 2; }));
+  haptics.flush();
+  const FfLog log = joy.log();
+  EXPECT_TRUE(uploads_of(log, FF_RUMBLE).empty());
+  for (const auto& u : log.uploads) EXPECT_EQ(u.retval, 0);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+  EXPECT_EQ(free_slots(joy.event_node()), 0);
+}
+
+TEST(HapticsVm, OneEffectSlotRumblePadKicks) {
+  VirtualJoystick joy(JoystickSpec::rumble_pad().effects_max(1));
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  EXPECT_TRUE(joy.wait_for([](const FfLog& l) { return !uploads_of(l, FF_RUMBLE).empty(); }));
+}
+
+TEST(HapticsVm, DeviceWithoutFfIsInputOnly) {
+  VirtualJoystick joy(JoystickSpec{}.named("plain stick").axis(ABS_X, -512, 511).axis(ABS_Y, -512, 511).button(BTN_TRIGGER));
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  haptics.flush();
+  haptics.flush();
+  EXPECT_EQ(haptics.stats().devices.load(), 1);
+  EXPECT_EQ(haptics.stats().ff_devices.load(), 0);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+  EXPECT_EQ(haptics.stats().open_failures.load(), 0u);
+  EXPECT_TRUE(joy.log().sequence.empty());
+}
+
+TEST(HapticsVm, GainIsSet) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !l.gains.empty(); }));
+  EXPECT_EQ(joy.gains()[0].gain, 0xc000);
+  HapticsSettings s = fast_settings();
+  s.gain = 0x4000;
+  haptics.configure(s);  // SIGHUP
+  EXPECT_TRUE(joy.wait_for([](const FfLog& l) { return l.gains.size() >= 2 && l.gains.back().gain == 0x4000; }));
+}
+
+TEST(HapticsVm, StopStopsAndErasesEveryEffect) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();  // attached (onsets from before the first poll give no kick)
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    return !uploads_of(l, FF_CONSTANT).empty() && !uploads_of(l, FF_RUMBLE).empty();
+  }));
+  const FfLog before = joy.log();
+  const std::int16_t c = uploads_of(before, FF_CONSTANT)[0].id;
+  const std::int16_t r = uploads_of(before, FF_RUMBLE)[0].id;
+  haptics.stop();
+  // Erased by us, before our fd closed (the erase answers are recorded before
+  // EVIOCRMFF returns).
+  const FfLog log = joy.log();
+  EXPECT_TRUE(played(log, c, 0));
+  EXPECT_TRUE(played(log, r, 0));
+  EXPECT_TRUE(erased(log, c));
+  EXPECT_TRUE(erased(log, r));
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 0);
+  EXPECT_EQ(free_slots(joy.event_node()), 16);
+}
+
+TEST(HapticsVm, UnplugForgetsIdsAndReplugUploadsAgain) {
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(5, joy.event_node(), {{0, kPlane}});
+  board.publish(0, contact(1.0, 0));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !uploads_of(l, FF_CONSTANT).empty(); }));
+  haptics.flush();
+  ASSERT_EQ(haptics.stats().ff.live_effects.load(), 1);
+
+  joy.unplug();
+  haptics.detach(5);  // what the io thread does when its read says ENODEV
+  haptics.flush();
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 0);
+  EXPECT_EQ(haptics.stats().devices.load(), 0);
+
+  joy.clear_log();
+  joy.plug();
+  haptics.attach(5, joy.event_node(), {{0, kPlane}});
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    const auto c = uploads_of(l, FF_CONSTANT);
+    return !c.empty() && played(l, c[0].id, 1);
+  }));
+  const auto constants = uploads_of(joy.log(), FF_CONSTANT);
+  EXPECT_FALSE(constants[0].old.has_value());  // a new effect (id −1), not an update of a dead id
+  EXPECT_EQ(constants[0].effect.u.constant.level, 16384);
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+}
+
+TEST(HapticsVm, KernelRefusingTheConstantFallsBackToRumble) {
+  // The device claims FF_CONSTANT, but its driver answers EINVAL.
+  VirtualJoystick joy(JoystickSpec::gamepad());
+  joy.fail_uploads_with(EINVAL);
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !l.uploads.empty(); }));
+  haptics.flush();
+  joy.fail_uploads_with(0);
+  EXPECT_EQ(haptics.stats().ff.errors.load(), 1u);
+
+  board.publish(0, contact(1.0, 0, true, 0.02));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !uploads_of(l, FF_RUMBLE).empty(); }));
+  haptics.flush();
+  board.publish(0, contact(-1.0, 0));
+  haptics.flush();
+  haptics.flush();
+  EXPECT_EQ(uploads_of(joy.log(), FF_CONSTANT).size(), 1u);  // the refused one only
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);      // the rumble
+}
+
+TEST(HapticsVm, NoFreeSlotIsCountedAndRetried) {
+  VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
+  EvdevClient hog(joy.event_node());  // another program holds the only slot
+  ff_effect held = support::rumble_effect(1, 1, 10);
+  ASSERT_EQ(hog.upload(held), 0);
+  FeedbackBoard board(1);
+  HapticsThread haptics(board, fast_settings());
+  haptics.start();
+  haptics.attach(0, joy.event_node(), {{0, kPlane}});
+  haptics.flush();
+  haptics.flush();
+  EXPECT_GE(haptics.stats().ff.errors.load(), 1u);  // ENOSPC from the kernel itself
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 0);
+  ASSERT_EQ(hog.erase(held.id), 0);  // the slot is free again: the retry gets it
+  board.publish(0, contact(1.0, 0));
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    for (const auto& u : l.uploads)
+      if (u.effect.type == FF_CONSTANT && u.retval == 0) return true;
+    return false;
+  }));
+  haptics.flush();
+  EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
+}
+
+}  // namespace
+}  // namespace sculpt::haptics
