@@ -69,13 +69,13 @@ std::string where(const std::filesystem::path& file, const toml::node& node) {
 std::optional<Control> parse_control(const toml::node& node, Role role, const std::string& at,
                                      const std::string& key_name) {
   const std::uint16_t type = is_axis_role(role) ? EV_ABS : EV_KEY;
-  if (auto n = node.value<std::int64_t>()) {
+  if (auto n = node.value_exact<std::int64_t>()) {
     if (*n < 0 || *n > (type == EV_ABS ? ABS_MAX : KEY_MAX))
       throw MappingError(fmt::format("{}: {} = {}: not a valid {} code", at, key_name, *n,
                                      type == EV_ABS ? "axis" : "button"));
     return Control{static_cast<std::uint16_t>(*n), false, false};
   }
-  auto s = node.value<std::string>();
+  auto s = node.value_exact<std::string>();
   if (!s)
     throw MappingError(fmt::format("{}: {} must be a code name like \"{}\", \"none\" or a number", at, key_name,
                                    type == EV_ABS ? "ABS_X" : "BTN_SOUTH"));
@@ -101,7 +101,7 @@ float parse_dead_zone(const toml::node& node, const std::string& at) {
 }
 
 std::uint16_t parse_id(const toml::node& node, const std::string& at, std::string_view key_name) {
-  auto v = node.value<std::int64_t>();
+  auto v = node.value_exact<std::int64_t>();
   if (!v || *v < 0 || *v > 0xffff)
     throw MappingError(fmt::format("{}: {} must be an integer 0..0xffff (e.g. 0x046d)", at, key_name));
   return static_cast<std::uint16_t>(*v);
@@ -116,11 +116,11 @@ DeviceOverride parse_override(const toml::table& t, const std::filesystem::path&
     if (key_name == "vendor") o.vendor = parse_id(node, at, key_name);
     else if (key_name == "product") o.product = parse_id(node, at, key_name);
     else if (key_name == "name") {
-      auto s = node.value<std::string>();
+      auto s = node.value_exact<std::string>();
       if (!s || s->empty()) throw MappingError(fmt::format("{}: name must be a non-empty string", at));
       o.name_contains = *s;
     } else if (key_name == "kind") {
-      auto s = node.value<std::string>();
+      auto s = node.value_exact<std::string>();
       if (s && *s == "gamepad") o.kind = DeviceKind::gamepad;
       else if (s && *s == "joystick") o.kind = DeviceKind::joystick;
       else throw MappingError(fmt::format("{}: kind must be \"gamepad\" or \"joystick\"", at));
