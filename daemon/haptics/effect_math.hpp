@@ -31,8 +31,10 @@ struct ForceScale {
 };
 
 struct RumbleScale {
-  double full_scale_impulse = 0.02;  // N·s for a full strong magnitude
-  double min_impulse = 1e-5;         // below this an onset gives no kick
+  // The sim's onset impulse is |force|·dt of the first contact tick: about
+  // 1 mN·s for a 1 N touch at 1 kHz. A 2 N touch (at 1 kHz) kicks at full strength.
+  double full_scale_impulse = 0.002;  // N·s for a full strong magnitude
+  double min_impulse = 1e-6;          // below this an onset gives no kick
   double weak_ratio = 0.5;           // weak motor = ratio · strong
   std::uint16_t length_ms = 60;      // a short kick
 };
