@@ -107,8 +107,8 @@ void EvdevDevice::handle(const input_event& ev, bool resync, const std::function
   switch (ev.type) {
     case EV_SYN:
       if (ev.code == SYN_REPORT) {
-        if (!have_msc_)
-          frame_.device_time_us = static_cast<std::int64_t>(ev.input_event_sec) * 1000000 + ev.input_event_usec;
+        frame_.kernel_time_us = static_cast<std::int64_t>(ev.input_event_sec) * 1000000 + ev.input_event_usec;
+        if (!have_msc_) frame_.device_time_us = frame_.kernel_time_us;
         flush(emit, false);
         have_msc_ = false;
       }
@@ -125,6 +125,8 @@ void EvdevDevice::handle(const input_event& ev, bool resync, const std::function
       break;
     case EV_ABS:
     case EV_KEY:
+      if (frame_.count == 0)  // a split part before its SYN_REPORT: the first event's time
+        frame_.kernel_time_us = static_cast<std::int64_t>(ev.input_event_sec) * 1000000 + ev.input_event_usec;
       if (!frame_.push({ev.type, ev.code, ev.value})) {
         flush(emit, true);
         frame_.push({ev.type, ev.code, ev.value});

@@ -87,6 +87,7 @@ struct InputFrame {
   std::uint16_t count = 0;
   std::int64_t device_time_us = 0;   // MSC_TIMESTAMP (unwrapped) or the kernel event time
   bool device_clock = false;         // device_time_us came from MSC_TIMESTAMP
+  std::int64_t kernel_time_us = 0;   // the kernel's event time (CLOCK_MONOTONIC), always set for live devices
   std::int64_t arrival_us = 0;       // CLOCK_MONOTONIC when read
   std::uint64_t at_tick = 0;         // 0 = apply now; else the tick to apply it on
   std::array<InputEvent, kMaxFrameEvents> events{};

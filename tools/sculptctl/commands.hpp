@@ -8,6 +8,9 @@ namespace sculpt::ctl {
 
 // `inspect FILE [--json]`: offline report of a mesh or scene file (inspect.cpp).
 void add_inspect_command(CLI::App& app);
+// `record FILE` / `replay FILE`: sessions of joystick input (record.cpp, replay.cpp).
+void add_record_command(CLI::App& app);
+void add_replay_command(CLI::App& app);
 
 // Commands report failure by printing one line to stderr and throwing this;
 // main turns it into the exit status.

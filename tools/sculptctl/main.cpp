@@ -9,6 +9,8 @@ int main(int argc, char** argv) {
   CLI::App app{"sculptctl: inspect scene and mesh files, talk to a running sculptd"};
   app.require_subcommand(1);
   sculpt::ctl::add_inspect_command(app);
+  sculpt::ctl::add_record_command(app);
+  sculpt::ctl::add_replay_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

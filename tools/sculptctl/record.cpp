@@ -1,0 +1,159 @@
+// `sculptctl record FILE [--duration S]`: captures the joysticks and gamepads
+// present (and any plugged in meanwhile) into a session file
+// (docs/session-format.md) until the duration ends or SIGINT/SIGTERM.
+#include <poll.h>
+#include <signal.h>
+#include <syslog.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "input/device_manager.hpp"
+#include "input/evdev_device.hpp"
+#include "input/session.hpp"
+
+namespace sculpt::ctl {
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_stop_signal(int) { g_stop.store(true); }
+
+struct RecordArgs {
+  std::string file;
+  double duration = 0;        // 0: until a signal
+  std::size_t wait_for = 0;   // start the clock once this many devices are there
+  double wait_timeout = 10;
+  bool all = false;
+  bool verbose = false;
+  std::string discovery = "auto";
+};
+
+// Collects frames in memory: the header (written first) lists every device
+// seen, and a device can appear mid-recording.
+class Recorder : public input::DeviceListener {
+ public:
+  explicit Recorder(bool verbose) : verbose_(verbose) {}
+
+  void on_attach(std::uint8_t slot, const input::DeviceInfo& info) override {
+    if (!index_.count(slot)) {
+      index_[slot] = static_cast<std::uint32_t>(devices_.size());
+      devices_.push_back(info);
+      devices_.back().node.clear();
+    }
+    fmt::print(stderr, "record: device {}: {}\n", index_[slot], input::describe(info));
+  }
+  void on_detach(std::uint8_t slot) override {
+    fmt::print(stderr, "record: device {} unplugged\n", index_.count(slot) ? index_[slot] : 0u);
+  }
+  void on_frame(const input::InputFrame& f) override {
+    if (!started_ || !index_.count(f.slot)) return;
+    input::SessionFrame s;
+    s.t_us = std::max<std::int64_t>(0, f.kernel_time_us - t0_us_);
+    s.device = index_[f.slot];
+    s.events.assign(f.events.begin(), f.events.begin() + f.count);
+    frames_.push_back(std::move(s));
+  }
+  void on_log(int priority, const std::string& message) override {
+    if (priority <= LOG_WARNING || verbose_) fmt::print(stderr, "record: {}\n", message);
+  }
+
+  void start_clock() {
+    started_ = true;
+    t0_us_ = input::monotonic_us();
+  }
+  const std::vector<input::DeviceInfo>& devices() const { return devices_; }
+  const std::vector<input::SessionFrame>& frames() const { return frames_; }
+
+ private:
+  bool verbose_;
+  bool started_ = false;
+  std::int64_t t0_us_ = 0;
+  std::map<std::uint8_t, std::uint32_t> index_;
+  std::vector<input::DeviceInfo> devices_;
+  std::vector<input::SessionFrame> frames_;
+};
+
+void poll_once(input::DeviceManager& manager, int timeout_ms) {
+  std::vector<pollfd> fds;
+  for (int fd : manager.fds()) fds.push_back({fd, POLLIN, 0});
+  const int n = ::poll(fds.data(), fds.size(), timeout_ms);
+  if (n <= 0) return;
+  for (const auto& p : fds)
+    if (p.revents) manager.dispatch(p.fd);
+}
+
+void run(const RecordArgs& args) {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+
+  Recorder recorder(args.verbose);
+  input::DeviceManagerOptions opts;
+  opts.accept_all = args.all;
+  opts.discovery = args.discovery == "udev"      ? input::Discovery::udev
+                   : args.discovery == "inotify" ? input::Discovery::inotify
+                                                 : input::Discovery::automatic;
+  input::DeviceManager manager(recorder, opts);
+  try {
+    manager.start();
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "sculptctl record: cannot watch input devices: {}\n", e.what());
+    throw CommandFailed{1};
+  }
+  using Clock = std::chrono::steady_clock;
+  const auto wait_end = Clock::now() + std::chrono::duration<double>(args.wait_for ? args.wait_timeout : 0);
+  while (!g_stop && manager.attached() < args.wait_for && Clock::now() < wait_end) poll_once(manager, 20);
+  if (manager.attached() < std::max<std::size_t>(args.wait_for, 1)) {
+    fmt::print(stderr, "sculptctl record: {} joystick(s) found{}; nothing to record{}\n", manager.attached(),
+               args.wait_for ? fmt::format(" within {} s, {} wanted", args.wait_timeout, args.wait_for) : "",
+               args.all ? "" : " (--all records any input device)");
+    throw CommandFailed{1};
+  }
+  recorder.start_clock();
+  // Say so on stdout: a script driving the devices waits for this line.
+  fmt::print("recording {} device(s) to {}\n", manager.attached(), args.file);
+  std::fflush(stdout);
+  const auto end = Clock::now() + std::chrono::duration<double>(args.duration);
+  while (!g_stop && (args.duration <= 0 || Clock::now() < end)) poll_once(manager, 10);
+  // What is already queued belongs to the recording too.
+  for (int fd : manager.fds()) manager.dispatch(fd);
+
+  input::Session session;
+  session.header.devices = recorder.devices();
+  session.header.description = fmt::format("recorded by sculptctl record");
+  session.frames = recorder.frames();
+  try {
+    input::write_session(args.file, session);
+  } catch (const input::SessionError& e) {
+    fmt::print(stderr, "sculptctl record: {}\n", e.what());
+    throw CommandFailed{1};
+  }
+  fmt::print("recorded {} frames from {} device(s), {:.2f} s\n", session.frames.size(), session.header.devices.size(),
+             session.frames.empty() ? 0.0 : session.frames.back().t_us / 1e6);
+}
+
+}  // namespace
+
+void add_record_command(CLI::App& app) {
+  auto args = std::make_shared<RecordArgs>();
+  CLI::App* cmd = app.add_subcommand("record", "Record the joysticks and gamepads into a session file");
+  cmd->add_option("file", args->file, "session file to write (JSON Lines, docs/session-format.md)")->required();
+  cmd->add_option("--duration", args->duration, "seconds to record (default: until Ctrl-C)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--wait-devices", args->wait_for, "wait until this many devices are present before starting");
+  cmd->add_option("--wait-timeout", args->wait_timeout, "seconds to wait for them (default 10)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--discovery", args->discovery, "auto, udev or inotify (default auto)")
+      ->check(CLI::IsMember({"auto", "udev", "inotify"}));
+  cmd->add_flag("--all", args->all, "record every input device, not only joysticks and gamepads");
+  cmd->add_flag("-v,--verbose", args->verbose, "log every device considered");
+  cmd->callback([args] { run(*args); });
+}
+
+}  // namespace sculpt::ctl

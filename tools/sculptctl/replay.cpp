@@ -1,0 +1,157 @@
+// `sculptctl replay FILE`: plays a recorded session through uinput. Each
+// recorded device becomes a virtual device with the same name, ids, axes
+// (absinfo), buttons and FF bits, which ANSWERS force-feedback uploads (a
+// client's EVIOCSFF would otherwise block for 30 s). Frames go out at their
+// recorded times, each with EV_MSC/MSC_TIMESTAMP = the recorded time, so a
+// daemon scheduling by device time (sculptd --input-clock device) lands them
+// on the same ticks as an in-process replay.
+#include <signal.h>
+#include <time.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "input/session.hpp"
+#include "uinput/virtual_device.hpp"
+
+namespace sculpt::ctl {
+namespace {
+
+std::atomic<bool> g_stop{false};
+void on_stop_signal(int) { g_stop.store(true); }
+
+struct ReplayArgs {
+  std::string file;
+  double speed = 1.0;
+  double settle = 1.0;   // seconds between creating the devices and the first frame
+  double hold = 0.5;     // seconds the devices stay after the last frame
+  bool quiet = false;
+};
+
+uinput::DeviceSpec spec_of(const input::DeviceInfo& d) {
+  uinput::DeviceSpec s;
+  s.name = d.name.substr(0, UINPUT_MAX_NAME_SIZE - 1);
+  s.id = input_id{d.bustype ? d.bustype : static_cast<std::uint16_t>(BUS_VIRTUAL), d.vendor, d.product, d.version};
+  s.phys = d.phys;
+  for (const auto& a : d.axes)
+    s.axes.push_back({a.code, input_absinfo{a.value, a.minimum, a.maximum, a.fuzz, a.flat, a.resolution}});
+  s.buttons = d.buttons;
+  s.msc = {MSC_TIMESTAMP};
+  s.ff_bits = d.ff;
+  s.ff_effects_max = d.ff.empty() ? 0u : static_cast<std::uint32_t>(d.ff_effects_max > 0 ? d.ff_effects_max : 16);
+  return s;
+}
+
+timespec add_ns(timespec t, std::int64_t ns) {
+  ns += t.tv_nsec;
+  t.tv_sec += static_cast<time_t>(ns / 1000000000);
+  t.tv_nsec = static_cast<long>(ns % 1000000000);
+  return t;
+}
+
+// Sleeps until `deadline`; false when a signal asked us to stop.
+bool sleep_until(const timespec& deadline) {
+  for (;;) {
+    if (g_stop) return false;
+    const int rc = ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
+    if (rc == 0) return !g_stop;
+    if (rc != EINTR) return false;
+  }
+}
+
+void run(const ReplayArgs& args) {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;  // no SA_RESTART: a signal ends the sleep
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+
+  std::unique_ptr<input::SessionReader> reader;
+  try {
+    reader = std::make_unique<input::SessionReader>(args.file);
+  } catch (const input::SessionError& e) {
+    fmt::print(stderr, "sculptctl replay: {}\n", e.what());
+    throw CommandFailed{2};
+  }
+  std::vector<std::unique_ptr<uinput::VirtualDevice>> devices;
+  try {
+    for (const auto& d : reader->header().devices) {
+      devices.push_back(std::make_unique<uinput::VirtualDevice>(spec_of(d)));
+      devices.back()->set_recording(false);  // answer uploads, count them, keep no log
+    }
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "sculptctl replay: cannot create the virtual devices ({}){}\n", e.what(),
+               errno == ENOENT || errno == EACCES ? "; replay needs write access to /dev/uinput" : "");
+    throw CommandFailed{1};
+  }
+  for (std::size_t i = 0; i < devices.size(); ++i)
+    fmt::print("device {}: {} '{}'\n", i, devices[i]->event_node(), devices[i]->spec().name);
+  std::fflush(stdout);
+
+  timespec start{};
+  ::clock_gettime(CLOCK_MONOTONIC, &start);
+  start = add_ns(start, static_cast<std::int64_t>(args.settle * 1e9));
+  std::size_t frames = 0;
+  std::vector<input_event> buf;
+  try {
+    while (auto f = reader->next()) {
+      if (!sleep_until(add_ns(start, static_cast<std::int64_t>(static_cast<double>(f->t_us) * 1000.0 / args.speed))))
+        break;
+      buf.clear();
+      for (const auto& e : f->events) {
+        input_event ev{};
+        ev.type = e.type;
+        ev.code = e.code;
+        ev.value = e.value;
+        buf.push_back(ev);
+      }
+      input_event ts{};
+      ts.type = EV_MSC;
+      ts.code = MSC_TIMESTAMP;
+      ts.value = static_cast<std::int32_t>(static_cast<std::uint32_t>(f->t_us));  // wraps like hardware's
+      buf.push_back(ts);
+      input_event syn{};
+      syn.type = EV_SYN;
+      syn.code = SYN_REPORT;
+      buf.push_back(syn);
+      devices[f->device]->emit_all(buf);
+      ++frames;
+    }
+  } catch (const input::SessionError& e) {
+    fmt::print(stderr, "sculptctl replay: {}\n", e.what());
+    throw CommandFailed{2};
+  }
+  if (!g_stop) {
+    timespec now{};
+    ::clock_gettime(CLOCK_MONOTONIC, &now);
+    sleep_until(add_ns(now, static_cast<std::int64_t>(args.hold * 1e9)));
+  }
+  std::size_t uploads = 0;
+  for (const auto& d : devices) uploads += d->uploads_answered();
+  if (!args.quiet)
+    fmt::print("replayed {} frames on {} device(s){}; answered {} FF uploads\n", frames, devices.size(),
+               g_stop ? " (stopped by a signal)" : "", uploads);
+}
+
+}  // namespace
+
+void add_replay_command(CLI::App& app) {
+  auto args = std::make_shared<ReplayArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "Play a recorded session through uinput (virtual devices that answer FF; needs /dev/uinput)");
+  cmd->add_option("file", args->file, "session file (docs/session-format.md)")->required();
+  cmd->add_option("--speed", args->speed, "playback speed factor (default 1)")->check(CLI::PositiveNumber);
+  cmd->add_option("--settle", args->settle,
+                  "seconds between creating the devices and the first frame, for clients to open them (default 1)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--hold", args->hold, "seconds the devices stay after the last frame (default 0.5)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("-q,--quiet", args->quiet, "no summary line");
+  cmd->callback([args] { run(*args); });
+}
+
+}  // namespace sculpt::ctl
