@@ -7,6 +7,7 @@
 #include "main/cli.hpp"
 #include "main/config.hpp"
 #include "main/daemon.hpp"
+#include "input/mapping.hpp"
 #include "main/log.hpp"
 #include "scene/scene.hpp"
 
@@ -31,6 +32,7 @@ int main(int argc, char** argv) {
     cli.apply(run.config);
     log::set_level(run.config.log_level);
     if (cli.check) {
+      input::parse_mapping(run.config.mapping_table, run.config.file.empty() ? "config" : run.config.file);
       const scene::Scene s = scene::load_scene(run.config.scene);
       std::printf("config %s: ok\nscene %s: ok (%zu meshes, %zu tools)\n",
                   run.config.file.empty() ? "(defaults)" : run.config.file.c_str(), s.file.c_str(), s.meshes.size(),

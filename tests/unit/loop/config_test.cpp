@@ -1,0 +1,198 @@
+// sculptd's config file and command line: every key read, bad values named
+// with file:line and key, flags over the file.
+#include <gtest/gtest.h>
+
+#include <CLI/CLI.hpp>
+
+#include "main/cli.hpp"
+#include "main/config.hpp"
+
+namespace sculpt::daemon {
+namespace {
+
+std::string error_of(std::string_view text) {
+  try {
+    parse_config(text, "test.conf");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Config, DefaultsWithoutAFile) {
+  const DaemonConfig c = parse_config("", "empty.conf");
+  EXPECT_EQ(c.scene, "builtin:default");
+  EXPECT_EQ(c.socket, kDefaultSocketPath);
+  EXPECT_FALSE(c.rate_hz.has_value());
+  EXPECT_EQ(c.input.kind, InputSpec::Kind::automatic);
+  EXPECT_EQ(c.input_clock, InputClock::arrival);
+  EXPECT_FALSE(c.realtime);
+  EXPECT_EQ(c.log_level, log::Level::info);
+  EXPECT_TRUE(c.haptics.enabled);
+}
+
+TEST(Config, MissingDefaultFileIsFineAMissingNamedOneIsNot) {
+  EXPECT_NO_THROW(load_config("/nonexistent/sculptd.conf", true));
+  EXPECT_THROW(load_config("/nonexistent/sculptd.conf", false), ConfigError);
+}
+
+TEST(Config, EveryKeyIsRead) {
+  const DaemonConfig c = parse_config(R"(
+[daemon]
+scene = "s.toml"
+socket = "/tmp/x.sock"
+rate_hz = 500
+input = "replay:session.jsonl"
+input_clock = "device"
+input_delay_ms = 20
+duration = 3.5
+realtime = true
+realtime_priority = 70
+log_level = "debug"
+stats_json = "/tmp/stats.json"
+hash_out = "/tmp/hash"
+watchdog_fraction = 0.25
+
+[tools]
+margin = 0.2
+size_step = 1.5
+min_scale = 0.5
+max_scale = 2.0
+
+[haptics]
+enabled = false
+poll_interval_ms = 8
+min_upload_interval_ms = 40
+gain = 1000
+constant = false
+rumble_on_onset = false
+full_scale_newton = 3.0
+dead_band_newton = 0.1
+max_level = 20000
+rumble_full_scale_impulse = 0.5
+rumble_min_impulse = 0.01
+rumble_weak_ratio = 0.25
+rumble_length_ms = 80
+level_step = 100
+direction_step = 300
+
+[input]
+dead_zone = 0.1
+
+[[device]]
+name = "pad"
+)", "full.conf");
+  EXPECT_EQ(c.scene, "s.toml");
+  EXPECT_EQ(c.socket, "/tmp/x.sock");
+  EXPECT_EQ(c.rate_hz.value_or(0), 500.0);
+  EXPECT_EQ(c.input.kind, InputSpec::Kind::replay);
+  EXPECT_EQ(c.input.replay, "session.jsonl");
+  EXPECT_EQ(c.input_clock, InputClock::device);
+  EXPECT_EQ(c.input_delay_ms, 20.0);
+  EXPECT_EQ(c.duration_s, 3.5);
+  EXPECT_TRUE(c.realtime);
+  EXPECT_EQ(c.realtime_priority, 70);
+  EXPECT_EQ(c.log_level, log::Level::debug);
+  EXPECT_EQ(c.stats_json, "/tmp/stats.json");
+  EXPECT_EQ(c.hash_out, "/tmp/hash");
+  EXPECT_EQ(c.watchdog_fraction, 0.25);
+  EXPECT_EQ(c.tool_margin, 0.2);
+  EXPECT_EQ(c.size_step, 1.5);
+  EXPECT_EQ(c.min_scale, 0.5);
+  EXPECT_EQ(c.max_scale, 2.0);
+  EXPECT_FALSE(c.haptics.enabled);
+  EXPECT_EQ(c.haptics.poll_interval.count(), 8);
+  EXPECT_EQ(c.haptics.min_upload_interval.count(), 40);
+  EXPECT_EQ(c.haptics.gain, 1000);
+  EXPECT_FALSE(c.haptics.constant);
+  EXPECT_FALSE(c.haptics.rumble_on_onset);
+  EXPECT_EQ(c.haptics.force.full_scale_newton, 3.0);
+  EXPECT_EQ(c.haptics.force.dead_band_newton, 0.1);
+  EXPECT_EQ(c.haptics.force.max_level, 20000.0);
+  EXPECT_EQ(c.haptics.rumble.full_scale_impulse, 0.5);
+  EXPECT_EQ(c.haptics.rumble.min_impulse, 0.01);
+  EXPECT_EQ(c.haptics.rumble.weak_ratio, 0.25);
+  EXPECT_EQ(c.haptics.rumble.length_ms, 80);
+  EXPECT_EQ(c.haptics.change.level_step, 100);
+  EXPECT_EQ(c.haptics.change.direction_step, 300);
+  // The input module's tables are handed on whole.
+  EXPECT_TRUE(c.mapping_table.contains("input"));
+  EXPECT_TRUE(c.mapping_table.contains("device"));
+}
+
+TEST(Config, ErrorsNameFileLineAndKey) {
+  EXPECT_EQ(error_of("[daemon]\nrate_hz = \"fast\"\n"), "test.conf:2: daemon.rate_hz: must be a number");
+  EXPECT_EQ(error_of("\n\n[daemon]\nrate_hz = 0\n"), "test.conf:4: daemon.rate_hz: must be within [1, 100000]");
+  EXPECT_NE(error_of("[daemon]\nratehz = 5\n").find("test.conf:2: daemon.ratehz: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("[deamon]\n").find("test.conf:1: deamon: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\ninput = \"joystick\"\n").find("test.conf:2: daemon.input:"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\ninput_clock = \"wall\"\n").find("daemon.input_clock"), std::string::npos);
+  EXPECT_NE(error_of("[daemon]\nlog_level = \"loud\"\n").find("daemon.log_level"), std::string::npos);
+  EXPECT_NE(error_of("[haptics]\ngain = 70000\n").find("test.conf:2: haptics.gain: must be within"), std::string::npos);
+  EXPECT_NE(error_of("[tools]\nsize_step = 1\n").find("tools.size_step"), std::string::npos);
+  EXPECT_NE(error_of("daemon = 3\n").find("daemon: must be a table"), std::string::npos);
+  EXPECT_NE(error_of("[daemon\n").find("test.conf:1:"), std::string::npos);  // TOML syntax
+}
+
+TEST(InputSpec, Parses) {
+  EXPECT_EQ(parse_input_spec("auto", "x").kind, InputSpec::Kind::automatic);
+  EXPECT_EQ(parse_input_spec("evdev", "x").kind, InputSpec::Kind::evdev);
+  const InputSpec r = parse_input_spec("replay:/a/b.jsonl", "x");
+  EXPECT_EQ(r.kind, InputSpec::Kind::replay);
+  EXPECT_EQ(r.replay, "/a/b.jsonl");
+  EXPECT_EQ(to_string(r), "replay:/a/b.jsonl");
+  EXPECT_THROW(parse_input_spec("replay:", "x"), ConfigError);
+  EXPECT_THROW(parse_input_spec("", "x"), ConfigError);
+}
+
+CliOptions parse_cli(std::vector<std::string> args) {
+  CLI::App app;
+  CliOptions o;
+  add_options(app, o);
+  std::vector<const char*> argv{"sculptd"};
+  for (auto& a : args) argv.push_back(a.c_str());
+  app.parse(static_cast<int>(argv.size()), const_cast<char**>(argv.data()));
+  return o;
+}
+
+TEST(Cli, FlagsOverrideTheFile) {
+  DaemonConfig c = parse_config("[daemon]\nrate_hz = 500\nscene = \"a.toml\"\nsocket = \"/x\"\n", "f.conf");
+  const CliOptions o = parse_cli({"--rate", "250", "--input", "replay:r.jsonl", "--input-clock", "device",
+                                  "--duration", "2", "--realtime", "--stats-json", "s.json", "--hash-out", "h",
+                                  "--log-level", "warning", "--input-delay", "10"});
+  o.apply(c);
+  EXPECT_EQ(c.rate_hz.value_or(0), 250.0);
+  EXPECT_EQ(c.scene, "a.toml");  // not given: the file's
+  EXPECT_EQ(c.socket, "/x");
+  EXPECT_EQ(c.input.kind, InputSpec::Kind::replay);
+  EXPECT_EQ(c.input_clock, InputClock::device);
+  EXPECT_EQ(c.input_delay_ms, 10.0);
+  EXPECT_EQ(c.duration_s, 2.0);
+  EXPECT_TRUE(c.realtime);
+  EXPECT_EQ(c.stats_json, "s.json");
+  EXPECT_EQ(c.hash_out, "h");
+  EXPECT_EQ(c.log_level, log::Level::warning);
+  EXPECT_FALSE(o.config_given);
+}
+
+TEST(Cli, BadFlagValuesAreNamed) {
+  DaemonConfig c;
+  auto msg = [&](std::vector<std::string> args) {
+    try {
+      parse_cli(std::move(args)).apply(c);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(msg({"--rate", "0"}).find("--rate"), std::string::npos);
+  EXPECT_NE(msg({"--input", "mouse"}).find("--input"), std::string::npos);
+  EXPECT_NE(msg({"--input-clock", "x"}).find("--input-clock"), std::string::npos);
+  EXPECT_NE(msg({"--duration", "-1"}).find("--duration"), std::string::npos);
+  EXPECT_NE(msg({"--log-level", "x"}).find("--log-level"), std::string::npos);
+  EXPECT_THROW(parse_cli({"--rate", "fast"}), CLI::ParseError);
+  EXPECT_TRUE(parse_cli({"--config", "/etc/x.conf"}).config_given);
+}
+
+}  // namespace
+}  // namespace sculpt::daemon
