@@ -1,16 +1,27 @@
 #include "haptics/haptics_engine.hpp"
 
-#include <systemd/sd-daemon.h>
-
 #include <cstdio>
 #include <exception>
 #include <utility>
 
 namespace sculpt::haptics {
 
+namespace {
+constexpr int kWarning = 4;  // syslog / sd-daemon priorities
+constexpr int kInfo = 6;
+}  // namespace
+
 HapticsEngine::HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
-                             HapticsStats& stats)
-    : board_(board), settings_(std::move(settings)), opener_(std::move(opener)), stats_(stats) {}
+                             HapticsStats& stats, LogSink log)
+    : board_(board), settings_(std::move(settings)), opener_(std::move(opener)), stats_(stats), log_(std::move(log)) {}
+
+void HapticsEngine::say(int priority, const std::string& message) const {
+  if (log_) {
+    log_(priority, message);
+    return;
+  }
+  std::fprintf(stderr, "<%d>haptics: %s\n", priority, message.c_str());
+}
 
 HapticsEngine::~HapticsEngine() { shutdown(); }
 
@@ -23,14 +34,21 @@ void HapticsEngine::open_ff(Attached& d) {
   options.rumble = settings_.rumble_on_onset;
   try {
     auto ff = std::make_unique<FfDevice>(opener_(d.node), options, &stats_.ff);
-    if (ff->mode() == FfMode::none) return;  // input only: no fd kept open for nothing
+    if (ff->mode() == FfMode::none) {
+      say(kInfo, d.node + ": no usable force feedback, input only");
+      return;  // no fd kept open for nothing
+    }
+    const int slots = ff->caps().effects_max;
+    say(kInfo, d.node + ": " + (ff->mode() == FfMode::constant ? "constant force" : "rumble only") +
+                   (ff->mode() == FfMode::constant && ff->rumble_allowed() ? " + rumble kicks" : "") + ", " +
+                   std::to_string(slots) + (slots == 1 ? " effect slot" : " effect slots"));
     d.ff = std::move(ff);
     stats_.ff_devices.fetch_add(1, std::memory_order_relaxed);
   } catch (const std::exception& e) {
     // A device we cannot open for FF still works as input: say so, go on.
     stats_.open_failures.fetch_add(1, std::memory_order_relaxed);
     last_error_ = e.what();
-    std::fprintf(stderr, SD_WARNING "haptics: no force feedback on %s: %s\n", d.node.c_str(), e.what());
+    say(kWarning, "no force feedback on " + d.node + ": " + e.what());
   }
 }
 

@@ -40,6 +40,11 @@ struct HapticsSettings {
 // Opens an event node for FF; the default is open_evdev_port.
 using PortOpener = std::function<std::unique_ptr<FfPort>(const std::string& node)>;
 
+// Where the engine's few messages go (device opened, no FF, open failed):
+// priority is syslog's (4 warning, 6 info). Empty: stderr with the sd-daemon
+// prefix. sculptd passes its log module.
+using LogSink = std::function<void(int priority, const std::string& message)>;
+
 struct HapticsStats {
   FfCounters ff;                              // uploads, errors, kicks, live effect ids
   std::atomic<int> devices{0};                // devices attached (FF or not)
@@ -50,7 +55,7 @@ struct HapticsStats {
 class HapticsEngine {
  public:
   HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
-                HapticsStats& stats);
+                HapticsStats& stats, LogSink log = {});
   ~HapticsEngine();  // shutdown()
 
   // A device appeared on `slot` (the input layer's stable slot) at `node`,
@@ -82,12 +87,14 @@ class HapticsEngine {
   };
   void open_ff(Attached& d);
   void detach_alive(int slot);
+  void say(int priority, const std::string& message) const;
   void poll_device(Attached& d, Clock::time_point now);
 
   const FeedbackBoard& board_;
   HapticsSettings settings_;
   PortOpener opener_;
   HapticsStats& stats_;
+  LogSink log_;
   std::map<int, Attached> devices_;
   std::string last_error_;
 };

@@ -4,8 +4,8 @@
 
 namespace sculpt::haptics {
 
-HapticsThread::HapticsThread(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener)
-    : engine_(board, settings, std::move(opener), stats_), poll_interval_(settings.poll_interval) {}
+HapticsThread::HapticsThread(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener, LogSink log)
+    : engine_(board, settings, std::move(opener), stats_, std::move(log)), poll_interval_(settings.poll_interval) {}
 
 HapticsThread::~HapticsThread() { stop(); }
 

@@ -27,7 +27,8 @@ namespace sculpt::haptics {
 
 class HapticsThread {
  public:
-  HapticsThread(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener = open_evdev_port);
+  HapticsThread(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener = open_evdev_port,
+                LogSink log = {});
   ~HapticsThread();  // stop()
   HapticsThread(const HapticsThread&) = delete;
   HapticsThread& operator=(const HapticsThread&) = delete;

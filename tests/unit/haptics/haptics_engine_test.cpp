@@ -179,6 +179,23 @@ TEST_F(Engine, OpenFailureIsCountedNotThrown) {
   EXPECT_EQ(stats.devices.load(), 1);
 }
 
+TEST_F(Engine, MessagesGoToTheLogSink) {
+  std::vector<std::pair<int, std::string>> lines;
+  auto pad = devices["/dev/input/event1"] = fake_device({FF_RUMBLE}, 1);
+  HapticsEngine e(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
+    auto it = devices.find(node);
+    if (it == devices.end()) throw std::runtime_error("cannot open " + node);
+    return std::make_unique<FakePort>(it->second, node);
+  }, stats, [&](int priority, const std::string& m) { lines.emplace_back(priority, m); });
+  e.attach(0, "/dev/input/event1", {{0, kPlane}});
+  e.attach(1, "/dev/input/missing", {{1, kPlane}});
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_EQ(lines[0].first, 6);
+  EXPECT_EQ(lines[0].second, "/dev/input/event1: rumble only, 1 effect slot");
+  EXPECT_EQ(lines[1].first, 4);
+  EXPECT_EQ(lines[1].second, "no force feedback on /dev/input/missing: cannot open /dev/input/missing");
+}
+
 TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   auto first = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   engine().attach(3, "/dev/input/event1", {{0, kPlane}});
