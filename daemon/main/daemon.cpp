@@ -431,13 +431,14 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   int shutdown(int status) {
     notify::stopping("stopping");
     stop_threads();
+    const std::uint64_t devices = device_count();  // attached until now
     tasks_ = nullptr;
     device_observer_ = nullptr;
     devices_.reset();
     if (epoll_ >= 0) ::close(epoll_);
     epoll_ = -1;
     loop::StatsSnapshot s = loop::snapshot(sim_->stats(), rate_);
-    s.devices = device_count();
+    s.devices = devices;
     s.ff_uploads = haptics_->stats().ff.uploads.load();
     const std::uint64_t hash = world_->hash();
     log::info("stopped after {} ticks: {} overruns, jitter p50 {:.1f} us p99 {:.1f} us max {:.1f} us, "
