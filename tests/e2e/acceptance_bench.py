@@ -1,0 +1,86 @@
+#!/usr/bin/env python3
+"""The acceptance benchmark of issue 5: a 50k-vertex scene sculpted by a
+replayed session for 30 s at 1 kHz, stats from sculptd's own --stats-json.
+
+    acceptance_bench.py --sculptd BIN --scene S --session R [--duration 30]
+                        [--repeats 3] [--realtime both|on|off]
+
+Runs `sculptd --scene S --input replay:R --duration D --stats-json F`
+(and the same with --realtime), `repeats` times each, and prints per run and
+the medians: overruns, jitter p50/p99/max, stage times, vertices awake. It
+prints numbers and asserts nothing (timings are not tests); it fails only if
+sculptd fails or the replay is not deterministic (same session, different
+final mesh hash).
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+
+def run(a, realtime, tmp, i):
+    stats = os.path.join(tmp, f"stats-{realtime}-{i}.json")
+    hash_out = os.path.join(tmp, f"hash-{realtime}-{i}")
+    cmd = [a.sculptd, "--config", os.devnull, "--scene", a.scene, "--input", "replay:" + a.session,
+           "--duration", str(a.duration), "--stats-json", stats, "--hash-out", hash_out, "--log-level", "warning"]
+    if realtime:
+        cmd.append("--realtime")
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=a.duration * 4 + 120)
+    if r.returncode != 0:
+        print(f"sculptd failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr}", file=sys.stderr)
+        sys.exit(1)
+    with open(stats) as f:
+        s = json.load(f)
+    with open(hash_out) as f:
+        s["hash"] = f.read().strip()
+    s["warnings"] = [l for l in r.stderr.splitlines() if l.strip()]
+    return s
+
+
+def line(s):
+    st = s["stage_us"]
+    return (f"ticks {s['ticks']} overruns {s['overruns']} jitter_us p50 {s['jitter_us']['p50']:.1f} "
+            f"p99 {s['jitter_us']['p99']:.1f} max {s['jitter_us']['max']:.1f} | stage p50/p99 us: "
+            + " ".join(f"{k} {v['p50']:.1f}/{v['p99']:.1f}" for k, v in st.items())
+            + f" | vertices {s['vertices_total']} awake at end {s['vertices_awake']} blowups {s['blowups']}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sculptd", required=True)
+    ap.add_argument("--scene", required=True)
+    ap.add_argument("--session", required=True)
+    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--realtime", choices=["both", "on", "off"], default="both")
+    a = ap.parse_args()
+    modes = {"both": [False, True], "on": [True], "off": [False]}[a.realtime]
+    print(f"# sculptd acceptance: {a.scene}, replay:{a.session}, {a.duration} s, {a.repeats} run(s) per mode")
+    hashes = set()
+    with tempfile.TemporaryDirectory() as tmp:
+        for rt in modes:
+            runs = [run(a, rt, tmp, i) for i in range(a.repeats)]
+            label = "--realtime" if rt else "plain"
+            for i, s in enumerate(runs):
+                print(f"{label} run {i + 1}: {line(s)}")
+                for w in s["warnings"]:
+                    print(f"  {w}")
+                hashes.add(s["hash"])
+            med = lambda f: statistics.median(f(s) for s in runs)
+            print(f"{label} median: overruns {med(lambda s: s['overruns']):.0f}, jitter_us p50 "
+                  f"{med(lambda s: s['jitter_us']['p50']):.1f} p99 {med(lambda s: s['jitter_us']['p99']):.1f} "
+                  f"max {med(lambda s: s['jitter_us']['max']):.1f}; step (integration) p50 "
+                  f"{med(lambda s: s['stage_us']['integration']['p50']):.1f} us p99 "
+                  f"{med(lambda s: s['stage_us']['integration']['p99']):.1f} us")
+    print(f"final mesh hash: {', '.join(sorted(hashes))}")
+    if len(hashes) != 1:
+        print("FAIL: the same session gave different meshes", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
