@@ -13,7 +13,7 @@ struct AxisCalibration {
   std::int32_t minimum = -1;
   std::int32_t maximum = 1;
   std::int32_t flat = 0;       // kernel's dead band around the centre (raw units)
-  std::int32_t fuzz = 0;       // noise: changes smaller than fuzz/2 are ignored
+  std::int32_t fuzz = 0;       // the kernel's noise filter (informative: evdev already applied it)
   float dead_zone = 0.0f;      // configured dead zone, fraction of the half range (0..<1)
   bool unipolar = false;       // trigger/throttle pedal: min..max → 0..1, dead zone at min
 
@@ -23,7 +23,8 @@ struct AxisCalibration {
   // values clamp. A degenerate range (max <= min) always reads 0.
   float normalize(std::int32_t raw) const;
 
-  // Kernel-style fuzz filter: whether `raw` is a real move away from `last`.
+  // Kernel-style fuzz test: whether `raw` is a real move away from `last`
+  // (for tools that read raw values; evdev clients get defuzzed ones).
   bool moved(std::int32_t last, std::int32_t raw) const;
 };
 

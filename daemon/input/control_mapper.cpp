@@ -7,9 +7,6 @@
 #include <cstdint>
 
 namespace sculpt::input {
-namespace {
-constexpr std::int32_t kNoValue = INT32_MIN;
-}  // namespace
 
 ControlMapper::ControlMapper(std::size_t tools) : tools_(std::min(tools, kMaxTools)) {}
 
@@ -21,7 +18,6 @@ void ControlMapper::apply(const InputMessage& m) {
       d = DeviceState{};
       d.attached = true;
       d.binding = m.binding;
-      d.raw.fill(kNoValue);  // the first event of each axis always counts
       break;
     case MessageKind::detach:
       // Sticks of a device that is gone read as centred, buttons as released
@@ -52,10 +48,11 @@ void ControlMapper::apply_event(DeviceState& d, const InputEvent& e) {
   if (e.type == EV_ABS) {
     for (std::size_t i = 0; i < b.axis_count; ++i) {
       if (b.axes[i].code != e.code) continue;
-      const AxisCalibration& c = b.axes[i].calibration;
-      if (!c.moved(d.raw[i], e.value)) continue;
+      // No second fuzz filter here: the kernel already defuzzed live values,
+      // and recorded ones were recorded defuzzed. Filtering again would make
+      // an in-process replay differ from the same session through uinput.
       d.raw[i] = e.value;
-      d.value[i] = c.normalize(e.value) * b.axes[i].scale;
+      d.value[i] = b.axes[i].calibration.normalize(e.value) * b.axes[i].scale;
     }
   } else if (e.type == EV_KEY) {
     for (std::size_t i = 0; i < b.button_count; ++i) {

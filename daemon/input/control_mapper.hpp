@@ -42,7 +42,7 @@ class ControlMapper {
   struct DeviceState {
     bool attached = false;
     DeviceBinding binding{};
-    std::array<std::int32_t, kMaxBoundAxes> raw{};
+    std::array<std::int32_t, kMaxBoundAxes> raw{};  // last raw value per bound axis
     std::array<float, kMaxBoundAxes> value{};
     std::array<bool, kMaxBoundButtons> held{};
   };

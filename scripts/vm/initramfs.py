@@ -5,6 +5,14 @@ The archive is written directly in the kernel's "newc" cpio format (a few
 lines of Python: no cpio binary, no staging tree, no root needed for the
 /dev/console node).
 
+Two extensions for tests that need more than their own binary:
+  with_paths  files or directories copied to the SAME absolute path in the
+              guest (ELF files bring the shared libraries `ldd` names), so a
+              test can use paths baked in at build time (sculptd, test data);
+  udevd       start systemd-udevd with the host's (Debian's) rules, trigger
+              and settle, so devices carry udev properties (ID_INPUT_JOYSTICK)
+              and libudev's monitor works, as on a desktop.
+
 What /init prints on the serial console, one marker per line, is the whole
 protocol with the host (qemu exits 0 whatever happened inside):
     @@SCULPT-VM kernel <uname -r>
@@ -12,6 +20,7 @@ protocol with the host (qemu exits 0 whatever happened inside):
     ... the test's own gtest output ...
     @@SCULPT-VM end <test name> <exit status>
     @@SCULPT-VM done
+    @@SCULPT-VM udevd <running|failed ...>
     @@SCULPT-VM error <what went wrong>
 """
 
@@ -28,6 +37,9 @@ from pathlib import Path
 
 MARK = "@@SCULPT-VM"
 BUSYBOX_CANDIDATES = ("/bin/busybox", "/usr/bin/busybox")
+UDEVADM_CANDIDATES = ("/usr/bin/udevadm", "/bin/udevadm")
+UDEV_RULE_DIRS = ("/usr/lib/udev/rules.d", "/lib/udev/rules.d", "/etc/udev/rules.d")
+WITH_LIMIT_BYTES = 400 * 1000 * 1000   # what --with may add: the guest holds it all in RAM
 
 
 class ImageError(RuntimeError):
@@ -42,6 +54,24 @@ def find_busybox() -> Path | None:
             return p
     found = shutil.which("busybox")
     return Path(found) if found else None
+
+
+def find_udevadm() -> Path | None:
+    """systemd's udevadm (systemd-udevd is the same binary under another name)."""
+    for c in UDEVADM_CANDIDATES:
+        p = Path(c)
+        if p.is_file():
+            return p
+    found = shutil.which("udevadm")
+    return Path(found) if found else None
+
+
+def is_elf(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(4) == b"\x7fELF"
+    except OSError:
+        return False
 
 
 def shared_libraries(binary: Path) -> list[Path]:
@@ -122,7 +152,7 @@ class GuestTest:
 
 
 def init_script(release: str, tests: list[GuestTest], env: dict[str, str], test_timeout_s: int,
-                modules: list[str], probe_only: bool) -> str:
+                modules: list[str], probe_only: bool, udevd: bool = False) -> str:
     q = shlex.quote
     lines = [
         "#!/bin/busybox sh",
@@ -140,8 +170,20 @@ def init_script(release: str, tests: list[GuestTest], env: dict[str, str], test_
             lines.append(f"insmod /lib/sculpt/{m}.ko || die 'insmod {m}.ko failed'")
         lines += [
             "[ -c /dev/uinput ] || die '/dev/uinput missing after insmod uinput.ko'",
-            "cd /tmp",
+            "mkdir -p /run && mount -t tmpfs tmpfs /run",
         ]
+        if udevd:
+            lines += [
+                # udevd as on a desktop: rules from the host, names never
+                # resolved over the network, every existing device replayed.
+                "/lib/systemd/systemd-udevd --daemon --resolve-names=never >/tmp/udevd.log 2>&1 "
+                "|| die \"systemd-udevd did not start: $(cat /tmp/udevd.log)\"",
+                "/usr/bin/udevadm trigger --action=add >/dev/null 2>&1",
+                "/usr/bin/udevadm settle --timeout=30 || die 'udevadm settle timed out'",
+                "[ -e /run/udev/control ] || die 'udevd is not listening (/run/udev/control missing)'",
+                f'echo "{MARK} udevd running"',
+            ]
+        lines.append("cd /tmp")
         for k, v in sorted(env.items()):
             lines.append(f"export {k}={q(v)}")
         for t in tests:
@@ -156,8 +198,62 @@ def init_script(release: str, tests: list[GuestTest], env: dict[str, str], test_
     return "\n".join(lines)
 
 
+def add_binary(a: Cpio, path: Path, at: str | None = None) -> None:
+    """An executable at `at` (default: its own path) and every library it loads."""
+    a.file(at or str(path), path.read_bytes(), 0o755)
+    for lib in shared_libraries(path):
+        # At the path ldd printed (the loader resolves exactly those),
+        # with the content of whatever symlink chain it names.
+        a.file(str(lib), lib.resolve().read_bytes())
+
+
+def add_with_path(a: Cpio, path: Path) -> int:
+    """A --with path at the same absolute path in the guest; returns the bytes added."""
+    path = Path(os.path.abspath(path))
+    if not path.exists():
+        raise ImageError(f"--with {path}: no such file or directory")
+    files = [path] if not path.is_dir() else sorted(p for p in path.rglob("*") if p.is_file())
+    if path.is_dir():
+        a.dir(str(path))
+    total = 0
+    for f in files:
+        if a.has(str(f)):
+            continue
+        mode = stat.S_IMODE(f.stat().st_mode)
+        if is_elf(f) and mode & 0o111:
+            add_binary(a, f)
+        else:
+            a.file(str(f), f.read_bytes(), mode)
+        total += f.stat().st_size
+    return total
+
+
+def add_udevd(a: Cpio) -> None:
+    """systemd-udevd, udevadm, the host's rules and the users/groups they name."""
+    udevadm = find_udevadm()
+    if not udevadm:
+        raise ImageError("--udevd: udevadm is not installed (Debian: apt-get install udev)")
+    add_binary(a, udevadm, "/usr/bin/udevadm")
+    a.symlink("lib/systemd/systemd-udevd", "/usr/bin/udevadm")
+    for d in UDEV_RULE_DIRS:
+        p = Path(d)
+        if not p.is_dir():
+            continue
+        for rule in sorted(p.glob("*.rules")):
+            a.file(f"{d}/{rule.name}", rule.read_bytes(), 0o644)
+    conf = Path("/etc/udev/udev.conf")
+    if conf.is_file():
+        a.file("etc/udev/udev.conf", conf.read_bytes(), 0o644)
+    # GROUP="input" and friends resolve against these (the rest just warn).
+    a.file("etc/passwd", b"root:x:0:0:root:/root:/bin/sh\n", 0o644)
+    groups = ["root:x:0:", "tty:x:5:", "disk:x:6:", "kmem:x:15:", "dialout:x:20:", "video:x:44:",
+              "audio:x:29:", "input:x:101:", "render:x:102:", "kvm:x:103:", "sgx:x:104:"]
+    a.file("etc/group", ("\n".join(groups) + "\n").encode(), 0o644)
+
+
 def build(output: Path, release: str, module_files: dict[str, Path], tests: list[GuestTest],
-          env: dict[str, str] | None = None, test_timeout_s: int = 60, probe_only: bool = False) -> Path:
+          env: dict[str, str] | None = None, test_timeout_s: int = 60, probe_only: bool = False,
+          with_paths: list[Path] | None = None, udevd: bool = False) -> Path:
     """Writes the initramfs to `output` and returns it."""
     busybox = find_busybox()
     if not busybox:
@@ -178,13 +274,17 @@ def build(output: Path, release: str, module_files: dict[str, Path], tests: list
         for t in tests:
             if a.has(f"tests/{t.binary.name}"):
                 continue
-            a.file(f"tests/{t.binary.name}", t.binary.read_bytes())
-            for lib in shared_libraries(t.binary):
-                # At the path ldd printed (the loader resolves exactly those),
-                # with the content of whatever symlink chain it names.
-                a.file(str(lib), lib.resolve().read_bytes())
+            add_binary(a, t.binary, f"tests/{t.binary.name}")
+        added = 0
+        for p in with_paths or []:
+            added += add_with_path(a, p)
+            if added > WITH_LIMIT_BYTES:
+                raise ImageError(f"--with paths add more than {WITH_LIMIT_BYTES // 1000000} MB "
+                                 f"(at {p}): the guest holds the image in RAM")
+        if udevd:
+            add_udevd(a)
     a.file("init", init_script(release, tests, env or {}, test_timeout_s, list(module_files),
-                               probe_only).encode())
+                               probe_only, udevd).encode())
     output.parent.mkdir(parents=True, exist_ok=True)
     tmp = output.with_suffix(".tmp")
     tmp.write_bytes(a.bytes())

@@ -10,6 +10,12 @@ console. One meson test with TAP output, rather than one meson test per VM
 test, because a boot costs seconds and the suite should pay for it once; TAP
 still gives meson (and the log) one result per gtest case.
 
+--with PATH (repeatable) copies a file or directory to the same absolute path
+in the guest (ELF files with their shared libraries), so tests can use paths
+baked in at build time. --udevd starts systemd-udevd in the guest with the
+host's rules (udevadm trigger + settle) before the tests: the udev path of
+device discovery, as on a desktop, instead of the bare devtmpfs one.
+
 Environment:
   SCULPTD_SKIP_VM=1          skip the suite (reported as skipped, never run)
   SCULPTD_VM_MODE=auto|host|vm   force where the tests run (default auto)
@@ -207,8 +213,10 @@ def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Report
     work = Path(args.work_dir)
     tests = [initramfs.GuestTest(b.name, b.path, ["--gtest_color=no"]) for b in binaries]
     t1 = time.monotonic()
-    image = initramfs.build(work / "initramfs.cpio", kernel.release, kernel.modules, tests,
-                            env=forwarded_env(), test_timeout_s=timeout_s)
+    image = initramfs.build(work / ("initramfs-udev.cpio" if args.udevd else "initramfs.cpio"),
+                            kernel.release, kernel.modules, tests,
+                            env=forwarded_env(), test_timeout_s=timeout_s,
+                            with_paths=args.with_paths, udevd=args.udevd)
     log(f"initramfs {image} ({image.stat().st_size / 1e6:.1f} MB) [{time.monotonic() - t1:.1f} s]")
 
     def probe_image() -> Path:
@@ -248,6 +256,9 @@ def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Report
             status = int(words[2]) if words[2].isdigit() else None
             why = f"killed after {timeout_s} s in the guest (hung?)" if status == 137 else ""
             rep.end(words[1], status, why)
+        elif kind == "udevd":
+            log(f"guest udevd: {' '.join(words[1:])}")
+            tap(f"# vm: udevd {' '.join(words[1:])}")
         elif kind == "done":
             rep.done = True
         elif kind == "error":
@@ -278,8 +289,16 @@ def main() -> int:
                     help="neither uinput nor qemu usable: fail (default) or skip")
     ap.add_argument("--memory", type=int, default=512, help="guest RAM in MiB")
     ap.add_argument("--slowdown", type=float, default=1.0, help="timeout multiplier (sanitized builds)")
+    ap.add_argument("--with", dest="with_paths", action="append", type=Path, default=[], metavar="PATH",
+                    help="file or directory the guest needs at the same absolute path (repeatable)")
+    ap.add_argument("--udevd", action="store_true",
+                    help="run systemd-udevd (with the host's rules) in the guest before the tests")
     ap.add_argument("binaries", nargs="+", type=Path)
     args = ap.parse_args()
+    for p in args.with_paths:
+        if not p.exists():
+            tap(f"Bail out! --with {p}: no such file or directory")
+            return 1
 
     if os.environ.get("SCULPTD_SKIP_VM") == "1":
         tap("1..0 # SKIP SCULPTD_SKIP_VM=1 is set: the uinput tests did not run")
@@ -292,7 +311,14 @@ def main() -> int:
     if mode == "host" and no_uinput:
         missing.append(f"SCULPTD_VM_MODE=host but {no_uinput}")
     use_host = mode == "host" or (mode == "auto" and not no_uinput)
+    if use_host and args.udevd and not os.path.exists("/run/udev/control"):
+        if mode == "host":
+            missing.append("--udevd with SCULPTD_VM_MODE=host but no udevd runs here (/run/udev/control)")
+        else:
+            use_host = False   # the host has uinput but no udevd: the VM brings its own
     if not use_host:
+        if args.udevd and not initramfs.find_udevadm():
+            missing.append("udevadm is not installed (Debian: apt-get install udev)")
         if not qemu:
             missing.append(f"{qemu_boot.QEMU} is not installed (Debian: apt-get install qemu-system-x86)")
         if not initramfs.find_busybox():

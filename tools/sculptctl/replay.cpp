@@ -38,8 +38,10 @@ uinput::DeviceSpec spec_of(const input::DeviceInfo& d) {
   s.name = d.name.substr(0, UINPUT_MAX_NAME_SIZE - 1);
   s.id = input_id{d.bustype ? d.bustype : static_cast<std::uint16_t>(BUS_VIRTUAL), d.vendor, d.product, d.version};
   s.phys = d.phys;
+  // fuzz 0: the recorded values were defuzzed when recorded; a second pass
+  // in the kernel would change them (it averages near moves).
   for (const auto& a : d.axes)
-    s.axes.push_back({a.code, input_absinfo{a.value, a.minimum, a.maximum, a.fuzz, a.flat, a.resolution}});
+    s.axes.push_back({a.code, input_absinfo{a.value, a.minimum, a.maximum, 0, a.flat, a.resolution}});
   s.buttons = d.buttons;
   s.msc = {MSC_TIMESTAMP};
   s.ff_bits = d.ff;

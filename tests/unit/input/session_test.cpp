@@ -1,6 +1,8 @@
 // The session format: round trips, and errors that name file, line and field.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "input/session.hpp"
 #include "input_test_util.hpp"
 
@@ -99,6 +101,21 @@ TEST(Session, Errors) {
   EXPECT_NE(error_of("f6", kHeader + "\n[0,0,[[3,0,5]]\n").find("f6:2: not valid JSON"), std::string::npos);
   EXPECT_NE(error_of("f7", kHeader + "\n[0,0,[[3,0,99999999999]]]\n").find("value 99999999999 out of range"),
             std::string::npos);
+}
+
+TEST(Session, ShippedSessionsRead) {
+  std::size_t n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(SCULPT_SESSIONS_DIR)) {
+    if (e.path().extension() != ".jsonl") continue;
+    ++n;
+    const Session s = read_session(e.path());
+    EXPECT_EQ(s.header.devices.size(), 1u) << e.path();
+    EXPECT_EQ(s.header.devices[0].kind, DeviceKind::gamepad) << e.path();
+    EXPECT_FALSE(s.header.description.empty()) << e.path();
+    ASSERT_GT(s.frames.size(), 1000u) << e.path();
+    EXPECT_GE(s.frames.back().t_us, 5'000'000) << e.path() << ": sessions are 5 s or longer";
+  }
+  EXPECT_GE(n, 3u) << "push, pull and two_hands at least, in " << SCULPT_SESSIONS_DIR;
 }
 
 TEST(Session, MissingFileNamesIt) {

@@ -1,0 +1,222 @@
+// `sculptctl replay` through uinput recreates the recorded devices (names,
+// ids, absinfo, buttons, FF bits), answers FF uploads, and delivers the
+// recorded events with MSC_TIMESTAMP = the recorded time; `sculptctl record`
+// captures a live device into a session that reads back.
+#include <gtest/gtest.h>
+
+#include <linux/input.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <map>
+#include <thread>
+
+#include "child_process.hpp"
+#include "input/session.hpp"
+#include "support/evdev_client.hpp"
+#include "support/virtual_joystick.hpp"
+#include "vm_input_util.hpp"
+
+#ifndef SCULPTCTL_BIN
+#error "SCULPTCTL_BIN must name the sculptctl binary"
+#endif
+#ifndef SCULPT_SESSIONS_DIR
+#error "SCULPT_SESSIONS_DIR must name tests/data/sessions"
+#endif
+
+namespace sculpt::input {
+namespace {
+
+using vmtest::ChildProcess;
+using vmtest::pump_until;
+using vmtest::Recorded;
+
+std::filesystem::path temp(const std::string& name) { return std::filesystem::path(::testing::TempDir()) / name; }
+
+DeviceInfo recorded_pad() {
+  DeviceInfo d;
+  d.name = "replayed pad";
+  d.bustype = BUS_USB;
+  d.vendor = 0x5c17;
+  d.product = 0x0101;
+  d.version = 3;
+  d.axes = {{ABS_X, 0, -32768, 32767, 16, 128, 0}, {ABS_Y, 0, -32768, 32767, 16, 128, 0},
+            {ABS_Z, 0, 0, 255, 0, 0, 0},           {ABS_RX, 0, -32768, 32767, 16, 128, 0},
+            {ABS_RY, 0, -32768, 32767, 16, 128, 0}, {ABS_RZ, 0, 0, 255, 0, 0, 0}};
+  d.buttons = {BTN_SOUTH, BTN_EAST, BTN_NORTH, BTN_WEST, BTN_TL, BTN_TR};
+  d.ff = {FF_CONSTANT, FF_RUMBLE, FF_GAIN};
+  d.ff_effects_max = 4;
+  d.kind = DeviceKind::gamepad;
+  return d;
+}
+
+DeviceInfo recorded_stick() {
+  DeviceInfo d;
+  d.name = "replayed stick";
+  d.bustype = BUS_USB;
+  d.vendor = 0x5c17;
+  d.product = 0x0102;
+  d.axes = {{ABS_X, 512, 0, 1023, 0, 8, 0}, {ABS_Y, 512, 0, 1023, 0, 8, 0}, {ABS_RZ, 128, 0, 255, 0, 0, 0}};
+  d.buttons = {BTN_TRIGGER, BTN_THUMB};
+  d.kind = DeviceKind::joystick;
+  return d;
+}
+
+Session make_session() {
+  Session s;
+  s.header.devices = {recorded_pad(), recorded_stick()};
+  std::int64_t t = 0;
+  for (int i = 0; i < 150; ++i) {
+    t += 2000 + (i % 7) * 300;  // uneven, like a real device
+    const int v = (i * 613) % 60000 - 30000;
+    s.frames.push_back({t, 0, {{EV_ABS, ABS_X, v}, {EV_ABS, ABS_RY, -v / 2}}});
+    if (i % 10 == 5) s.frames.push_back({t, 1, {{EV_ABS, ABS_X, (i * 37) % 1024}, {EV_KEY, BTN_TRIGGER, (i / 10) % 2}}});
+    if (i % 25 == 0) s.frames.push_back({t + 100, 0, {{EV_KEY, BTN_SOUTH, (i / 25) % 2}, {EV_ABS, ABS_Z, i}}});
+  }
+  return s;
+}
+
+std::map<std::pair<int, int>, int> final_state(const Session& s, std::uint32_t device) {
+  std::map<std::pair<int, int>, int> m;
+  for (const auto& f : s.frames)
+    if (f.device == device)
+      for (const auto& e : f.events) m[{e.type, e.code}] = e.value;
+  return m;
+}
+
+TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
+  const Session session = make_session();
+  const auto file = temp("replay_vm.jsonl");
+  write_session(file, session);
+
+  Recorded events;
+  DeviceManager manager(events);
+  manager.start();
+  ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", "0.3", file.string()});
+  ASSERT_TRUE(pump_until(manager, [&] { return events.attaches.size() >= 2; }, std::chrono::milliseconds(8000)))
+      << "replay did not create two devices; its output: " << replay.output();
+
+  const auto* pad = events.attach_named("replayed pad");
+  const auto* stick = events.attach_named("replayed stick");
+  ASSERT_NE(pad, nullptr);
+  ASSERT_NE(stick, nullptr);
+  EXPECT_EQ(pad->info.vendor, 0x5c17);
+  EXPECT_EQ(pad->info.product, 0x0101);
+  EXPECT_EQ(pad->info.version, 3);
+  EXPECT_EQ(pad->info.kind, DeviceKind::gamepad);
+  ASSERT_NE(pad->info.axis(ABS_RY), nullptr);
+  EXPECT_EQ(pad->info.axis(ABS_RY)->minimum, -32768);
+  EXPECT_EQ(pad->info.axis(ABS_RY)->flat, 128);
+  EXPECT_EQ(pad->info.buttons, recorded_pad().buttons);
+  EXPECT_TRUE(pad->info.has_ff(FF_CONSTANT));
+  EXPECT_EQ(pad->info.ff_effects_max, 4);
+  EXPECT_TRUE(pad->info.has_msc_timestamp);
+  EXPECT_EQ(stick->info.kind, DeviceKind::joystick);
+  EXPECT_TRUE(stick->info.ff.empty());
+  EXPECT_LT(pad->slot, stick->slot) << "created in the header's order";
+
+  // A force-feedback client (like sculptd's haptics thread) is answered
+  // at once instead of blocking for 30 s.
+  {
+    support::EvdevClient client(pad->info.node);
+    ff_effect e = support::constant_effect(0x2000, 0x4000, 100);
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(client.upload(e), 0);
+    EXPECT_GE(e.id, 0);
+    ff_effect again = support::constant_effect(0x3000, 0x4000, 100, e.id);
+    EXPECT_EQ(client.upload(again), 0);
+    EXPECT_EQ(again.id, e.id);
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+  }
+
+  const std::uint8_t pad_slot = pad->slot, stick_slot = stick->slot;
+  ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= 2; }, std::chrono::milliseconds(15000)))
+      << "the replay's devices never went away; output: " << replay.output();
+  const auto status = replay.wait();
+  ASSERT_TRUE(status.has_value());
+  EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << replay.output();
+  EXPECT_NE(replay.output().find("replayed " + std::to_string(session.frames.size()) + " frames"), std::string::npos)
+      << replay.output();
+  EXPECT_NE(replay.output().find("answered 2 FF uploads"), std::string::npos) << replay.output();
+
+  // Every device ends where the recording ends.
+  for (auto [slot, index] : {std::pair{pad_slot, 0u}, std::pair{stick_slot, 1u}}) {
+    auto got = events.state(slot);
+    for (const auto& [key, value] : final_state(session, index))
+      EXPECT_EQ(got[key], value) << "device " << index << " type " << key.first << " code " << key.second;
+  }
+  // Each frame carries its recorded time as the device clock.
+  std::vector<std::int64_t> recorded;
+  for (const auto& f : session.frames)
+    if (f.device == 0) recorded.push_back(f.t_us);
+  std::size_t matched = 0, pad_frames = 0;
+  for (const auto& f : events.frames) {
+    if (f.slot != pad_slot) continue;
+    ++pad_frames;
+    EXPECT_TRUE(f.device_clock);
+    if (std::find(recorded.begin(), recorded.end(), f.device_time_us) != recorded.end()) ++matched;
+  }
+  EXPECT_GT(pad_frames, recorded.size() / 2);
+  EXPECT_EQ(matched, pad_frames) << "a frame arrived with a device time that is not a recorded one";
+}
+
+TEST(Replay, ShippedSessionsPlay) {
+  std::size_t n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(SCULPT_SESSIONS_DIR)) {
+    if (e.path().extension() != ".jsonl") continue;
+    ++n;
+    const Session s = read_session(e.path());
+    ASSERT_FALSE(s.frames.empty()) << e.path();
+    Recorded events;
+    DeviceManager manager(events);
+    manager.start();
+    // Fast: 20x speed; this checks the devices and that it plays to the end.
+    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "20", "--settle", "0.3", "--hold", "0.2",
+                         e.path().string()});
+    ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= s.header.devices.size(); },
+                           std::chrono::milliseconds(20000)))
+        << e.path() << ": " << replay.output();
+    ASSERT_EQ(events.attaches.size(), s.header.devices.size()) << e.path();
+    for (std::size_t i = 0; i < s.header.devices.size(); ++i) {
+      EXPECT_EQ(events.attaches[i].info.name, s.header.devices[i].name);
+      auto got = events.state(events.attaches[i].slot);
+      for (const auto& [key, value] : final_state(s, static_cast<std::uint32_t>(i)))
+        EXPECT_EQ(got[key], value) << e.path() << " device " << i << " code " << key.second;
+    }
+    const auto status = replay.wait();
+    ASSERT_TRUE(status.has_value());
+    EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << replay.output();
+  }
+  EXPECT_GE(n, 3u) << "expected the push, pull and two-hands sessions in " << SCULPT_SESSIONS_DIR;
+}
+
+TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
+  const auto file = temp("recorded_vm.jsonl");
+  std::filesystem::remove(file);
+  ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", "--duration", "1.5", file.string()});
+  support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("vm recorded pad"));
+  auto line = record.line(std::chrono::milliseconds(10000));
+  while (line && line->rfind("recording", 0) != 0) line = record.line();
+  ASSERT_TRUE(line.has_value()) << "record never started: " << record.output();
+  pad.move_axes({{ABS_X, 111}, {ABS_Y, 222}});
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // spacing between moves, not a wait for a fact
+  pad.press(BTN_SOUTH);
+  pad.move_axis(ABS_RX, -333);
+  const auto status = record.wait();
+  ASSERT_TRUE(status.has_value());
+  ASSERT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << record.output();
+
+  const Session s = read_session(file);
+  ASSERT_EQ(s.header.devices.size(), 1u);
+  EXPECT_EQ(s.header.devices[0].name, "vm recorded pad");
+  EXPECT_EQ(s.header.devices[0].kind, DeviceKind::gamepad);
+  EXPECT_TRUE(s.header.devices[0].has_ff(FF_CONSTANT));
+  ASSERT_EQ(s.frames.size(), 3u);
+  EXPECT_EQ(s.frames[0].events, (std::vector<InputEvent>{{EV_ABS, ABS_X, 111}, {EV_ABS, ABS_Y, 222}}));
+  EXPECT_EQ(s.frames[1].events, (std::vector<InputEvent>{{EV_KEY, BTN_SOUTH, 1}}));
+  EXPECT_EQ(s.frames[2].events, (std::vector<InputEvent>{{EV_ABS, ABS_RX, -333}}));
+  EXPECT_GE(s.frames[1].t_us - s.frames[0].t_us, 90000) << "times are kept";
+}
+
+}  // namespace
+}  // namespace sculpt::input
