@@ -9,7 +9,6 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <set>
 #include <thread>
 
 #include "haptics/ff_device.hpp"
