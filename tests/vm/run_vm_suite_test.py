@@ -121,5 +121,75 @@ class InitramfsTest(unittest.TestCase):
         self.assertTrue(script.rstrip().endswith("poweroff -f"))
 
 
+class WithAndUdevdTest(unittest.TestCase):
+    """--with copies paths to the same absolute path (ELF files with their
+    libraries); --udevd brings udevd, its rules and starts it in /init."""
+
+    def listing(self, archive: "initramfs.Cpio") -> list[str]:
+        busybox = initramfs.find_busybox()
+        if not busybox:
+            self.fail("busybox is not installed (apt-get install busybox-static)")
+        with tempfile.NamedTemporaryFile() as f:
+            f.write(archive.bytes())
+            f.flush()
+            out = subprocess.run([str(busybox), "cpio", "-t", "-F", f.name],
+                                 capture_output=True, text=True, check=True).stdout
+        return out.split()
+
+    def test_with_copies_files_and_directories_at_their_absolute_paths(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            d = Path(tmp) / "data"
+            (d / "sub").mkdir(parents=True)
+            (d / "a.txt").write_text("a")
+            (d / "sub" / "b.jsonl").write_text("b")
+            single = Path(tmp) / "single.toml"
+            single.write_text("x = 1")
+            a = initramfs.Cpio()
+            added = initramfs.add_with_path(a, d) + initramfs.add_with_path(a, single)
+            names = self.listing(a)
+        self.assertEqual(added, len("a") + len("b") + len("x = 1"))  # bytes added
+        for p in (d / "a.txt", d / "sub" / "b.jsonl", single):
+            self.assertIn(str(p).lstrip("/"), names)
+
+    def test_with_an_elf_brings_its_shared_libraries(self):
+        a = initramfs.Cpio()
+        initramfs.add_with_path(a, Path(sys.executable).resolve())
+        names = self.listing(a)
+        self.assertIn(str(Path(sys.executable).resolve()).lstrip("/"), names)
+        self.assertTrue(any("libc.so" in n for n in names), names[:20])
+
+    def test_with_a_missing_path_is_a_clear_error(self):
+        with self.assertRaisesRegex(initramfs.ImageError, "no such file"):
+            initramfs.add_with_path(initramfs.Cpio(), Path("/nonexistent/sculpt/path"))
+
+    def test_udevd_init_starts_udevd_after_the_modules_and_settles(self):
+        tests = [initramfs.GuestTest("a_test", Path("/x/a_test"), [])]
+        script = initramfs.init_script("6.1.0", tests, {}, 42, ["evdev", "uinput"], probe_only=False, udevd=True)
+        self.assertLess(script.index("insmod /lib/sculpt/uinput.ko"), script.index("systemd-udevd --daemon"))
+        self.assertLess(script.index("udevadm trigger"), script.index("udevadm settle"))
+        self.assertLess(script.index("udevadm settle"), script.index("begin a_test"))
+        self.assertIn("udevd running", script)
+        plain = initramfs.init_script("6.1.0", tests, {}, 42, ["evdev", "uinput"], probe_only=False)
+        self.assertNotIn("udevd", plain)
+
+    def test_udevd_image_has_udevadm_rules_and_groups(self):
+        if not initramfs.find_udevadm():
+            self.fail("udevadm is not installed (apt-get install udev)")
+        a = initramfs.Cpio()
+        initramfs.add_udevd(a)
+        names = self.listing(a)
+        self.assertIn("usr/bin/udevadm", names)
+        self.assertIn("lib/systemd/systemd-udevd", names)
+        self.assertTrue(any(n.endswith("60-input-id.rules") for n in names))
+        self.assertIn("etc/group", names)
+
+    def test_runner_bails_out_on_a_missing_with_path(self):
+        p = subprocess.run([sys.executable, str(Path(runner.__file__)), "--work-dir", "/tmp/x",
+                            "--with", "/nonexistent/sculpt/path", "/bin/true"],
+                           capture_output=True, text=True, env={**os.environ, "SCULPTD_SKIP_VM": ""})
+        self.assertEqual(p.returncode, 1)
+        self.assertIn("Bail out! --with /nonexistent/sculpt/path", p.stdout)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
