@@ -178,6 +178,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   // delay, counted from the device's first frame, not when it arrived: a
   // session replayed through uinput lands on the ticks `replay:` gives it.
   std::uint64_t device_tick(const input::InputFrame& f) {
+    // Frames without a device clock (a resync, a device without
+    // MSC_TIMESTAMP) apply in order, right after what is already queued.
+    if (!f.device_clock) return 0;
     Anchor& a = anchors_[f.slot % anchors_.size()];
     const double per_us = rate_ / 1e6;
     if (!a.valid) {
@@ -186,6 +189,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
                static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us));
       a.last = 1;
       a.valid = true;
+      log::debug("slot {}: device clock anchored: device time {} us applies on tick {}", f.slot, f.device_time_us,
+                 a.base + static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us)));
     }
     std::int64_t t = a.base + static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us));
     t = std::max({t, a.last, std::int64_t{1}});
@@ -371,6 +376,11 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       next_watchdog_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                  *watchdog_ * cfg_.watchdog_fraction);
     }
+    // A fact tests (and people reading debug logs) can wait for: nothing
+    // moves any more, so the meshes stay bit-identical from here on.
+    const bool at_rest = sim_->stats().vertices_awake.load(std::memory_order_relaxed) == 0;
+    if (at_rest && !at_rest_) log::debug("all meshes at rest (tick {})", sim_->ticks());
+    at_rest_ = at_rest;
     if (now >= next_status_) {
       notify::status(status_line());
       next_status_ = now + kStatusEvery;
@@ -484,6 +494,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::chrono::steady_clock::time_point next_watchdog_{}, next_status_{}, started_{};
   std::uint64_t watchdog_ticks_ = std::numeric_limits<std::uint64_t>::max();
   bool stalled_logged_ = false;
+  bool at_rest_ = true;
   bool stopping_ = false;
   kj::Own<kj::TaskSet> tasks_;  // last: its promises use everything above
 };
