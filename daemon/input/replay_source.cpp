@@ -14,17 +14,17 @@ ReplaySource::ReplaySource(const std::filesystem::path& file, double rate_hz, Bi
 
 void ReplaySource::start(std::uint64_t start_tick) { start_tick_ = start_tick == 0 ? 1 : start_tick; }
 
-std::uint64_t ReplaySource::tick_of(std::int64_t t_us) const {
-  // tick = start + round(t · rate): integer arithmetic where the rate is
-  // whole (it always is for sculptd), so no platform rounds differently.
-  const double r = rate_hz_;
-  if (r == std::floor(r) && r < 1e9) {
-    const auto rate = static_cast<std::uint64_t>(r);
+std::uint64_t replay_tick(std::uint64_t start_tick, std::int64_t t_us, double rate_hz) {
+  if (t_us < 0) t_us = 0;
+  if (rate_hz == std::floor(rate_hz) && rate_hz > 0 && rate_hz < 1e9) {
+    const auto rate = static_cast<std::uint64_t>(rate_hz);
     const auto t = static_cast<std::uint64_t>(t_us);
-    return start_tick_ + (t * rate + 500000) / 1000000;
+    return start_tick + (t * rate + 500000) / 1000000;
   }
-  return start_tick_ + static_cast<std::uint64_t>(std::llround(static_cast<double>(t_us) * r / 1e6));
+  return start_tick + static_cast<std::uint64_t>(std::llround(static_cast<double>(t_us) * rate_hz / 1e6));
 }
+
+std::uint64_t ReplaySource::tick_of(std::int64_t t_us) const { return replay_tick(start_tick_, t_us, rate_hz_); }
 
 std::optional<InputMessage> ReplaySource::next() {
   if (pending_) {

@@ -17,6 +17,12 @@
 
 namespace sculpt::input {
 
+// The tick a frame recorded at t_us applies on: start_tick + round(t_us ·
+// rate_hz / 1e6), halves up, in integer arithmetic for whole rates. Whoever
+// schedules by device time (sculptd --input-clock device) should use this
+// too, so uinput replays land on exactly the ticks ReplaySource gives.
+std::uint64_t replay_tick(std::uint64_t start_tick, std::int64_t t_us, double rate_hz);
+
 class ReplaySource {
  public:
   // Resolves a device's binding (ToolRouter::attach, usually).

@@ -66,6 +66,11 @@ TEST(ReplaySource, OtherRates) {
   frac.start(10);
   EXPECT_EQ(frac.tick_of(3000000), 10u + 1001u);  // 1000.5 → 1001
   EXPECT_THROW(ReplaySource(two_device_session(), 0.0, {}), SessionError);
+  // The free function gives the same ticks (for device-clock scheduling).
+  EXPECT_EQ(replay_tick(1, 1000, 500.0), 2u);
+  EXPECT_EQ(replay_tick(5, 1499, 1000.0), 6u);
+  EXPECT_EQ(replay_tick(5, 1500, 1000.0), 7u);
+  EXPECT_EQ(replay_tick(5, -3, 1000.0), 5u);
 }
 
 TEST(ReplaySource, LongReportsAreSplitOnOneTick) {
