@@ -184,17 +184,17 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     // MSC_TIMESTAMP) apply in order, right after what is already queued.
     if (!f.device_clock) return 0;
     Anchor& a = anchors_[f.slot % anchors_.size()];
-    const double per_us = rate_ / 1e6;
+    // Rounded exactly as ReplaySource rounds: same session, same ticks.
+    auto ticks_of = [this](std::int64_t t_us) { return static_cast<std::int64_t>(input::replay_tick(0, t_us, rate_)); };
     if (!a.valid) {
       const auto delay = static_cast<std::int64_t>(std::llround(cfg_.input_delay_ms * 1e-3 * rate_));
-      a.base = static_cast<std::int64_t>(current_tick()) + delay -
-               static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us));
+      a.base = static_cast<std::int64_t>(current_tick()) + delay - ticks_of(f.device_time_us);
       a.last = 1;
       a.valid = true;
       log::debug("slot {}: device clock anchored: device time {} us applies on tick {}", f.slot, f.device_time_us,
-                 a.base + static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us)));
+                 a.base + ticks_of(f.device_time_us));
     }
-    std::int64_t t = a.base + static_cast<std::int64_t>(std::llround(static_cast<double>(f.device_time_us) * per_us));
+    std::int64_t t = a.base + ticks_of(f.device_time_us);
     t = std::max({t, a.last, std::int64_t{1}});
     a.last = t;
     return static_cast<std::uint64_t>(t);
