@@ -379,6 +379,49 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
   oz = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
 }
 
+// The neighbour slots of eight consecutive vertices (nb0, L0 point at the
+// first of them in slot 0): each neighbour fetched as two 16-byte loads from
+// the packed array and transposed to x/y/z lanes. Every arithmetic step is the
+// one pair_force() does, in the same order, without fused multiply-adds:
+// identical bits. Accumulates into f and pe, in slot order.
+template <ForceModel M>
+__attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
+    const float* __restrict P, const std::int32_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
+    int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
+    __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe) {
+  for (int s = 0; s < slots; ++s) {
+    const std::int32_t* nb = nb0 + s * stride;
+    const float* p[8];
+    for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[l]);
+    __m256 xj, yj, zj, vxj, vyj, vzj;
+    gather_lanes(p, 0, xj, yj, zj);
+    gather_lanes(p, 4, vxj, vyj, vzj);
+    const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
+    const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
+    if constexpr (M == ForceModel::linear) {
+      fx = _mm256_add_ps(fx, _mm256_add_ps(_mm256_mul_ps(k8, dx), _mm256_mul_ps(c8, dvx)));
+      fy = _mm256_add_ps(fy, _mm256_add_ps(_mm256_mul_ps(k8, dy), _mm256_mul_ps(c8, dvy)));
+      fz = _mm256_add_ps(fz, _mm256_add_ps(_mm256_mul_ps(k8, dz), _mm256_mul_ps(c8, dvz)));
+      pe = _mm256_add_ps(
+          pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                               _mm256_mul_ps(dz, dz))));
+    } else {
+      const __m256 len = _mm256_sqrt_ps(
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+      const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
+      const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride));
+      const __m256 dvd =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
+      const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
+                                      _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
+      fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
+      fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
+      fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
+      pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
+    }
+  }
+}
+
 // The spring model's neighbour loop with AVX2 intrinsics: 8 vertices at a time,
 // each neighbour fetched as two 16-byte loads from the packed array and
 // transposed to x/y/z lanes. Every arithmetic step is the one pair_force()
@@ -407,37 +450,8 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
     __m256 pe = _mm256_load_ps(w.pe + i);
-    for (int s = 0; s < A.slots; ++s) {
-      const std::int32_t* nb = nb0 + s * stride + i;
-      const float* p[8];
-      for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[l]);
-      __m256 xj, yj, zj, vxj, vyj, vzj;
-      gather_lanes(p, 0, xj, yj, zj);
-      gather_lanes(p, 4, vxj, vyj, vzj);
-      const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
-      const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
-      if constexpr (M == ForceModel::linear) {
-        fx = _mm256_add_ps(fx, _mm256_add_ps(_mm256_mul_ps(k8, dx), _mm256_mul_ps(c8, dvx)));
-        fy = _mm256_add_ps(fy, _mm256_add_ps(_mm256_mul_ps(k8, dy), _mm256_mul_ps(c8, dvy)));
-        fz = _mm256_add_ps(fz, _mm256_add_ps(_mm256_mul_ps(k8, dz), _mm256_mul_ps(c8, dvz)));
-        pe = _mm256_add_ps(
-            pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-                                                 _mm256_mul_ps(dz, dz))));
-      } else {
-        const __m256 len = _mm256_sqrt_ps(
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
-        const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
-        const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride + i));
-        const __m256 dvd =
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
-        const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
-                                        _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
-        fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
-        fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
-        fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
-        pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
-      }
-    }
+    accumulate_slots8<M>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
+                         tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe);
     _mm256_store_ps(w.fx + i, fx);
     _mm256_store_ps(w.fy + i, fy);
     _mm256_store_ps(w.fz + i, fz);
@@ -485,6 +499,7 @@ __attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>&
 #endif
 
 std::atomic<bool> g_portable{false};
+std::atomic<bool> g_block_pieces{false};
 
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
 // Decided once at load time, so the real-time thread never meets a
@@ -499,6 +514,7 @@ const bool g_has_avx2 = detect_avx2();
 }  // namespace
 
 void force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
+void force_block_pieces(bool on) { g_block_pieces.store(on, std::memory_order_relaxed); }
 
 bool packed_path_active() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
@@ -547,13 +563,41 @@ template <Velocity V, ForceModel M>
 }
 
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+// Eight vertices' rows (x y z, vx vy vz; two implicit zero rows) transposed
+// 8×8 into eight {x,y,z,0,vx,vy,vz,0} records at q (32-byte aligned).
+__attribute__((target("avx2"), always_inline)) inline void store_packed8(float* q, __m256 ox, __m256 oy, __m256 oz,
+                                                                        __m256 vx, __m256 vy, __m256 vz) {
+  const __m256 zero = _mm256_setzero_ps();
+  // Rows a0..a3 = x y z 0 and b0..b3 = vx vy vz 0: 4×4 transposes per 128-bit lane.
+  const __m256 t0 = _mm256_unpacklo_ps(ox, oy), t1 = _mm256_unpackhi_ps(ox, oy);
+  const __m256 t2 = _mm256_unpacklo_ps(oz, zero), t3 = _mm256_unpackhi_ps(oz, zero);
+  const __m256 a0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));  // vertices 0,4
+  const __m256 a1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));  // 1,5
+  const __m256 a2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));  // 2,6
+  const __m256 a3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));  // 3,7
+  const __m256 u0 = _mm256_unpacklo_ps(vx, vy), u1 = _mm256_unpackhi_ps(vx, vy);
+  const __m256 u2 = _mm256_unpacklo_ps(vz, zero), u3 = _mm256_unpackhi_ps(vz, zero);
+  const __m256 b0 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0));
+  const __m256 b1 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2));
+  const __m256 b2 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0));
+  const __m256 b3 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2));
+  _mm256_store_ps(q + 0, _mm256_permute2f128_ps(a0, b0, 0x20));
+  _mm256_store_ps(q + 8, _mm256_permute2f128_ps(a1, b1, 0x20));
+  _mm256_store_ps(q + 16, _mm256_permute2f128_ps(a2, b2, 0x20));
+  _mm256_store_ps(q + 24, _mm256_permute2f128_ps(a3, b3, 0x20));
+  _mm256_store_ps(q + 32, _mm256_permute2f128_ps(a0, b0, 0x31));
+  _mm256_store_ps(q + 40, _mm256_permute2f128_ps(a1, b1, 0x31));
+  _mm256_store_ps(q + 48, _mm256_permute2f128_ps(a2, b2, 0x31));
+  _mm256_store_ps(q + 56, _mm256_permute2f128_ps(a3, b3, 0x31));
+}
+
 // Eight vertices at a time: six rows (x y z vx vy vz) and two zero rows,
 // transposed 8×8 into eight {x,y,z,0,vx,vy,vz,0} records.
 template <Velocity V, ForceModel M>
 __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float* __restrict packed,
                                                std::uint32_t begin, std::uint32_t end) {
   std::uint32_t i = begin;
-  const __m256 inv_dt = _mm256_set1_ps(A.inv_dt), zero = _mm256_setzero_ps();
+  const __m256 inv_dt = _mm256_set1_ps(A.inv_dt);
   for (; i + 8 <= end; i += 8) {
     const __m256 x = _mm256_loadu_ps(A.x + i), y = _mm256_loadu_ps(A.y + i), z = _mm256_loadu_ps(A.z + i);
     __m256 ox = x, oy = y, oz = z;  // what neighbours read: p (spring) or u = p − r (linear)
@@ -570,28 +614,7 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
     } else {
       vx = _mm256_loadu_ps(A.wx + i), vy = _mm256_loadu_ps(A.wy + i), vz = _mm256_loadu_ps(A.wz + i);
     }
-    // Rows a0..a3 = x y z 0 and b0..b3 = vx vy vz 0: 4×4 transposes per 128-bit lane.
-    const __m256 t0 = _mm256_unpacklo_ps(ox, oy), t1 = _mm256_unpackhi_ps(ox, oy);
-    const __m256 t2 = _mm256_unpacklo_ps(oz, zero), t3 = _mm256_unpackhi_ps(oz, zero);
-    const __m256 a0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));  // vertices 0,4
-    const __m256 a1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));  // 1,5
-    const __m256 a2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));  // 2,6
-    const __m256 a3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));  // 3,7
-    const __m256 u0 = _mm256_unpacklo_ps(vx, vy), u1 = _mm256_unpackhi_ps(vx, vy);
-    const __m256 u2 = _mm256_unpacklo_ps(vz, zero), u3 = _mm256_unpackhi_ps(vz, zero);
-    const __m256 b0 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(1, 0, 1, 0));
-    const __m256 b1 = _mm256_shuffle_ps(u0, u2, _MM_SHUFFLE(3, 2, 3, 2));
-    const __m256 b2 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(1, 0, 1, 0));
-    const __m256 b3 = _mm256_shuffle_ps(u1, u3, _MM_SHUFFLE(3, 2, 3, 2));
-    float* q = packed + 8 * static_cast<std::size_t>(i);
-    _mm256_store_ps(q + 0, _mm256_permute2f128_ps(a0, b0, 0x20));
-    _mm256_store_ps(q + 8, _mm256_permute2f128_ps(a1, b1, 0x20));
-    _mm256_store_ps(q + 16, _mm256_permute2f128_ps(a2, b2, 0x20));
-    _mm256_store_ps(q + 24, _mm256_permute2f128_ps(a3, b3, 0x20));
-    _mm256_store_ps(q + 32, _mm256_permute2f128_ps(a0, b0, 0x31));
-    _mm256_store_ps(q + 40, _mm256_permute2f128_ps(a1, b1, 0x31));
-    _mm256_store_ps(q + 48, _mm256_permute2f128_ps(a2, b2, 0x31));
-    _mm256_store_ps(q + 56, _mm256_permute2f128_ps(a3, b3, 0x31));
+    store_packed8(packed + 8 * static_cast<std::size_t>(i), ox, oy, oz, vx, vy, vz);
   }
   pack_loop<V, M>(A, packed, i, end);
 }
@@ -657,6 +680,177 @@ __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<floa
   return {sum8(sp, cnt), m};
 }
 
+
+// Horizontal pieces of the deterministic reductions, in sum8()'s fixed tree.
+__attribute__((target("avx2"), always_inline)) inline float tree_sum8(__m256 v) {
+  alignas(32) float p[8];
+  _mm256_store_ps(p, v);
+  return ((p[0] + p[1]) + (p[2] + p[3])) + ((p[4] + p[5]) + (p[6] + p[7]));
+}
+__attribute__((target("avx2"), always_inline)) inline std::uint32_t max_u32x8(__m256i v) {
+  alignas(32) std::uint32_t p[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(p), v);
+  std::uint32_t m = 0;
+  for (int l = 0; l < 8; ++l) m = p[l] > m ? p[l] : m;
+  return m;
+}
+
+// Integrates eight vertices of a block from their forces and packs them into
+// packed_next (the tail of fused_full_block_avx2).
+struct Finish8 {
+  __m256 inv_m, dt, dt2, inv_dt, in_inv_dt;
+  float *X, *Y, *Z, *WX, *WY, *WZ;
+  const float *RX, *RY, *RZ;
+  float* packed_next;  // at the block's first record
+  __m256 sp_sum;
+  __m256i sp_max;
+};
+template <ForceModel M, Integrator I>
+__attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, std::uint32_t i, __m256 fx, __m256 fy,
+                                                                  __m256 fz) {
+  const __m256 inv_m = F.inv_m, dt = F.dt, dt2 = F.dt2, inv_dt = F.inv_dt, in_inv_dt = F.in_inv_dt;
+  float* __restrict X = F.X;
+  float* __restrict Y = F.Y;
+  float* __restrict Z = F.Z;
+  float* __restrict WX = F.WX;
+  float* __restrict WY = F.WY;
+  float* __restrict WZ = F.WZ;
+  const __m256 ax = _mm256_mul_ps(fx, inv_m), ay = _mm256_mul_ps(fy, inv_m), az = _mm256_mul_ps(fz, inv_m);
+  __m256 ux, uy, uz, nx, ny, nz;
+  if constexpr (I == Integrator::position_verlet) {
+    const __m256 ox = _mm256_load_ps(X + i), oy = _mm256_load_ps(Y + i), oz = _mm256_load_ps(Z + i);
+    nx = _mm256_add_ps(_mm256_add_ps(ox, _mm256_sub_ps(ox, _mm256_load_ps(WX + i))), _mm256_mul_ps(ax, dt2));
+    ny = _mm256_add_ps(_mm256_add_ps(oy, _mm256_sub_ps(oy, _mm256_load_ps(WY + i))), _mm256_mul_ps(ay, dt2));
+    nz = _mm256_add_ps(_mm256_add_ps(oz, _mm256_sub_ps(oz, _mm256_load_ps(WZ + i))), _mm256_mul_ps(az, dt2));
+    _mm256_store_ps(WX + i, ox);
+    _mm256_store_ps(WY + i, oy);
+    _mm256_store_ps(WZ + i, oz);
+    ux = _mm256_mul_ps(_mm256_sub_ps(nx, ox), in_inv_dt);
+    uy = _mm256_mul_ps(_mm256_sub_ps(ny, oy), in_inv_dt);
+    uz = _mm256_mul_ps(_mm256_sub_ps(nz, oz), in_inv_dt);
+  } else {  // symplectic Euler
+    ux = _mm256_add_ps(_mm256_load_ps(WX + i), _mm256_mul_ps(ax, dt));
+    uy = _mm256_add_ps(_mm256_load_ps(WY + i), _mm256_mul_ps(ay, dt));
+    uz = _mm256_add_ps(_mm256_load_ps(WZ + i), _mm256_mul_ps(az, dt));
+    _mm256_store_ps(WX + i, ux);
+    _mm256_store_ps(WY + i, uy);
+    _mm256_store_ps(WZ + i, uz);
+    nx = _mm256_add_ps(_mm256_load_ps(X + i), _mm256_mul_ps(ux, dt));
+    ny = _mm256_add_ps(_mm256_load_ps(Y + i), _mm256_mul_ps(uy, dt));
+    nz = _mm256_add_ps(_mm256_load_ps(Z + i), _mm256_mul_ps(uz, dt));
+  }
+  _mm256_store_ps(X + i, nx);
+  _mm256_store_ps(Y + i, ny);
+  _mm256_store_ps(Z + i, nz);
+  const __m256 sp = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ux, ux), _mm256_mul_ps(uy, uy)), _mm256_mul_ps(uz, uz));
+  F.sp_sum = _mm256_add_ps(F.sp_sum, sp);
+  F.sp_max = _mm256_max_epu32(F.sp_max, _mm256_castps_si256(sp));
+  // What pack_avx2 would compute from the arrays just written: for Verlet
+  // (x − w)·inv_dt with x = nx, w = ox is ux again (A.inv_dt == In.inv_dt).
+  __m256 px = nx, py = ny, pz = nz;
+  if constexpr (M == ForceModel::linear) {
+    px = _mm256_sub_ps(nx, _mm256_load_ps(F.RX + i));
+    py = _mm256_sub_ps(ny, _mm256_load_ps(F.RY + i));
+    pz = _mm256_sub_ps(nz, _mm256_load_ps(F.RZ + i));
+  }
+  __m256 pvx = ux, pvy = uy, pvz = uz;
+  if constexpr (I == Integrator::position_verlet) {
+    pvx = _mm256_mul_ps(_mm256_sub_ps(nx, _mm256_load_ps(WX + i)), inv_dt);
+    pvy = _mm256_mul_ps(_mm256_sub_ps(ny, _mm256_load_ps(WY + i)), inv_dt);
+    pvz = _mm256_mul_ps(_mm256_sub_ps(nz, _mm256_load_ps(WZ + i)), inv_dt);
+  }
+  store_packed8(F.packed_next + 8 * static_cast<std::size_t>(i), px, py, pz, pvx, pvy, pvz);
+}
+
+// A whole block (kBlock vertices) in one pass over groups of eight, with the
+// state in registers: anchor and own velocity, neighbour slots, integrate,
+// speed sums, pack. The same IEEE operations in the same order as
+// forces_avx2_block + write_acc + integrate_loop + pack_avx2 (identical bits),
+// without the scalar prologue loops, the acceleration round trip and the
+// re-reads. Blocks with overflow neighbours keep the forces in the scratch
+// until their extras are added (a vertex sums slots first, then extras).
+template <ForceModel M, Velocity V, Integrator I>
+__attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const ForceArgs<float>& A,
+                                                                       const IntegrateArgs<float>& In,
+                                                                       std::uint32_t begin, std::uint32_t ob,
+                                                                       std::uint32_t oe, float* packed_next,
+                                                                       float& potential) {
+  static_assert(kBlock % 8 == 0);
+  const float k = A.stiffness, c = A.damping;
+  const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(0.25f * k);
+  const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
+  const __m256 inv_dt = _mm256_set1_ps(A.inv_dt), ka = _mm256_set1_ps(A.anchor), ca = _mm256_set1_ps(A.anchor_damping);
+  const __m256 half_ka = _mm256_set1_ps(0.5f * A.anchor);
+  const __m256 gx = _mm256_set1_ps(A.gravity_force[0]), gy = _mm256_set1_ps(A.gravity_force[1]),
+               gz = _mm256_set1_ps(A.gravity_force[2]);
+  const __m256 inv_m = _mm256_set1_ps(A.inv_mass);
+  const float dt_s = In.dt;
+  const __m256 dt = _mm256_set1_ps(dt_s), dt2 = _mm256_set1_ps(dt_s * dt_s);
+  const __m256 in_inv_dt = _mm256_set1_ps(In.inv_dt);
+  const std::size_t stride = A.stride;
+  const float* __restrict P = A.packed;
+  const std::int32_t* __restrict nb0 = A.nbr + begin;
+  const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;
+  float* __restrict X = In.x + begin;
+  float* __restrict Y = In.y + begin;
+  float* __restrict Z = In.z + begin;
+  float* __restrict WX = In.wx + begin;
+  float* __restrict WY = In.wy + begin;
+  float* __restrict WZ = In.wz + begin;
+  const float* __restrict RX = A.rx + begin;
+  const float* __restrict RY = A.ry + begin;
+  const float* __restrict RZ = A.rz + begin;
+  const bool extras = oe > ob;
+  BlockScratch<float> w;
+  __m256 pe_sum = _mm256_setzero_ps();
+  Finish8 F{inv_m, dt, dt2, inv_dt, in_inv_dt, X, Y, Z, WX, WY, WZ, RX, RY, RZ,
+            packed_next + 8 * static_cast<std::size_t>(begin), _mm256_setzero_ps(), _mm256_setzero_si256()};
+
+
+  for (std::uint32_t i = 0; i < kBlock; i += 8) {
+    const __m256 x = _mm256_load_ps(X + i), y = _mm256_load_ps(Y + i), z = _mm256_load_ps(Z + i);
+    __m256 vx, vy, vz;
+    if constexpr (V == Velocity::backward_difference) {
+      vx = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_load_ps(WX + i)), inv_dt);
+      vy = _mm256_mul_ps(_mm256_sub_ps(y, _mm256_load_ps(WY + i)), inv_dt);
+      vz = _mm256_mul_ps(_mm256_sub_ps(z, _mm256_load_ps(WZ + i)), inv_dt);
+    } else {
+      vx = _mm256_load_ps(WX + i), vy = _mm256_load_ps(WY + i), vz = _mm256_load_ps(WZ + i);
+    }
+    const __m256 rx = _mm256_load_ps(RX + i), ry = _mm256_load_ps(RY + i), rz = _mm256_load_ps(RZ + i);
+    // Anchor, its damper and gravity (init_block).
+    const __m256 dx = _mm256_sub_ps(rx, x), dy = _mm256_sub_ps(ry, y), dz = _mm256_sub_ps(rz, z);
+    __m256 fx = _mm256_add_ps(_mm256_sub_ps(_mm256_mul_ps(ka, dx), _mm256_mul_ps(ca, vx)), gx);
+    __m256 fy = _mm256_add_ps(_mm256_sub_ps(_mm256_mul_ps(ka, dy), _mm256_mul_ps(ca, vy)), gy);
+    __m256 fz = _mm256_add_ps(_mm256_sub_ps(_mm256_mul_ps(ka, dz), _mm256_mul_ps(ca, vz)), gz);
+    __m256 pe = _mm256_add_ps(
+        _mm256_mul_ps(half_ka, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                             _mm256_mul_ps(dz, dz))),
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, dx), _mm256_mul_ps(gy, dy)), _mm256_mul_ps(gz, dz)));
+    __m256 xi = x, yi = y, zi = z;
+    if constexpr (M == ForceModel::linear) xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
+    accumulate_slots8<M>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
+                              one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe);
+    if (extras) {
+      _mm256_store_ps(w.fx + i, fx), _mm256_store_ps(w.fy + i, fy), _mm256_store_ps(w.fz + i, fz);
+      _mm256_store_ps(w.pe + i, pe);
+      _mm256_store_ps(w.vx + i, vx), _mm256_store_ps(w.vy + i, vy), _mm256_store_ps(w.vz + i, vz);
+    } else {
+      pe_sum = _mm256_add_ps(pe_sum, pe);
+      finish8<M, I>(F, i, fx, fy, fz);
+    }
+  }
+  if (extras) {
+    overflow_block<float, M, V, true>(A, begin, ob, oe, w);
+    for (std::uint32_t i = 0; i < kBlock; i += 8) {
+      pe_sum = _mm256_add_ps(pe_sum, _mm256_load_ps(w.pe + i));
+      finish8<M, I>(F, i, _mm256_load_ps(w.fx + i), _mm256_load_ps(w.fy + i), _mm256_load_ps(w.fz + i));
+    }
+  }
+  potential = tree_sum8(pe_sum);
+  return {tree_sum8(F.sp_sum), max_u32x8(F.sp_max)};
+}
+
 }  // namespace
 #endif
 
@@ -669,6 +863,16 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
   constexpr auto PV = Integrator::position_verlet;
   constexpr auto SE = Integrator::symplectic_euler;
   const bool spring = model == ForceModel::spring;
+  // Every block but a body's last one (unless the testing knob asks for the pieces).
+  if (end - begin == kBlock && !g_block_pieces.load(std::memory_order_relaxed)) {
+    if (integrator == PV)
+      return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV>(a, in, begin, ob, oe, packed_next, potential)
+                    : fused_full_block_avx2<ForceModel::linear, BD, PV>(a, in, begin, ob, oe, packed_next, potential);
+    if (integrator == SE)
+      return spring ? fused_full_block_avx2<ForceModel::spring, ST, SE>(a, in, begin, ob, oe, packed_next, potential)
+                    : fused_full_block_avx2<ForceModel::linear, ST, SE>(a, in, begin, ob, oe, packed_next, potential);
+  }
+  // A body's last, partial block.
   if (integrator == PV)
     return spring ? fused_avx2<ForceModel::spring, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential)
                   : fused_avx2<ForceModel::linear, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential);

@@ -89,13 +89,18 @@ void pack(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* pack
 // The fused pass for one block (float, position Verlet or
 // symplectic Euler, AVX2 path): forces with neighbours from a.packed, integrate
 // in place, write the block's new state into packed_next. Same bits as
-// forces() + integrate() + pack(); skips the acceleration buffer.
+// forces() + integrate() + pack(); skips the acceleration buffer. A whole
+// block (kBlock vertices) goes through in one pass of eight-vertex groups whose
+// state stays in registers from the anchor to the packed record.
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                   std::uint32_t oe, float* packed_next, float& potential);
 
 // Testing knob: never take the AVX2 packed path (the portable clones still run).
 void force_portable(bool on);
+// Testing and benchmark knob: run whole blocks of the fused pass as separate
+// pieces (forces, integrate, pack), as before the one-pass block kernel.
+void force_block_pieces(bool on);
 // Whether forces() reads neighbours from ForceArgs::packed (AVX2 CPU, knob off).
 bool packed_path_active();
 

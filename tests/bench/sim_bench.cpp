@@ -27,20 +27,30 @@ void BM_StepAllAwake(benchmark::State& state) {
   const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
   w.add_body(mesh, Material{});
   w.wake_all(0);
-  kernel::force_portable(state.range(1) != 0);
+  // range(1): 0 = auto (one-pass blocks), 1 = portable kernels, 2 = the fused pass in pieces.
+  kernel::force_portable(state.range(1) == 1);
+  kernel::force_block_pieces(state.range(1) == 2);
   long tick = 0;
   for (auto _ : state) {
     const Tool t = pressing(tick++);
     w.step({&t, 1});
   }
   kernel::force_portable(false);
+  kernel::force_block_pieces(false);
   state.counters["vertices"] = static_cast<double>(mesh.positions.size());
   state.counters["ns_per_vertex_step"] = benchmark::Counter(
       static_cast<double>(state.iterations()) * mesh.positions.size() * w.substeps(0),
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.SetLabel(state.range(1) ? "portable" : "auto");
+  state.SetLabel(state.range(1) == 1 ? "portable" : state.range(1) == 2 ? "pieces" : "auto");
 }
-BENCHMARK_TEMPLATE(BM_StepAllAwake, float)->Args({5, 0})->Args({5, 1})->Args({7, 0})->Unit(benchmark::kMillisecond);
+BENCHMARK_TEMPLATE(BM_StepAllAwake, float)
+    ->Args({5, 0})
+    ->Args({5, 2})
+    ->Args({5, 1})
+    ->Args({6, 0})
+    ->Args({6, 2})
+    ->Args({7, 0})
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_StepAllAwake, double)->Args({5, 0})->Unit(benchmark::kMillisecond);
 
 void BM_StepBaseline(benchmark::State& state) {

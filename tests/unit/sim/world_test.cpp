@@ -323,6 +323,58 @@ TEST(Determinism, Avx2PathMatchesPortableKernels) {
   EXPECT_EQ(portable_se, scripted_run(Integrator::symplectic_euler));
 }
 
+// A cone with 400 rim vertices: the apex and the base centre have degree 400+,
+// so whole (not only partial) blocks carry ELL overflow entries, which the
+// one-pass block kernel adds after the slots.
+std::uint64_t big_cone_run(Integrator integrator, ForceModel model, bool& full_block_overflow) {
+  SimSettings s;
+  s.integrator = integrator;
+  World<float> w(s, 1);
+  TriangleMesh cone;
+  constexpr std::uint32_t kRim = 400;
+  cone.positions.push_back({0.0f, 0.15f, 0.0f});
+  for (std::uint32_t k = 0; k < kRim; ++k) {
+    const float a = 6.2831853f * static_cast<float>(k) / kRim;
+    cone.positions.push_back({0.05f * std::cos(a), 0.1f, 0.05f * std::sin(a)});
+  }
+  cone.positions.push_back({0.0f, 0.1f, 0.0f});
+  for (std::uint32_t k = 1; k <= kRim; ++k) {
+    cone.triangles.push_back({0, k % kRim + 1, k});
+    cone.triangles.push_back({kRim + 1, k, k % kRim + 1});
+  }
+  Material m;
+  m.model = model;
+  m.plastic = true;
+  w.add_body(cone, m);
+  const Body<float>& b = w.body(0);
+  full_block_overflow = false;
+  for (std::uint32_t blk = 0; blk + 1 < b.blocks; ++blk)
+    full_block_overflow = full_block_overflow || b.overflow_begin[blk + 1] > b.overflow_begin[blk];
+  Tool t;
+  t.radius = 0.015;
+  for (int n = 0; n < 200; ++n) {
+    t.position = {0.01 * std::sin(n * 0.03), 0.16 - 0.02 * std::min(n, 100) / 100.0, 0.0};
+    w.step({&t, 1});
+  }
+  EXPECT_TRUE(test::all_finite(w));
+  return w.hash();
+}
+
+TEST(Determinism, OneBlockPassMatchesPortableKernelsWithOverflow) {
+  for (Integrator i : {Integrator::position_verlet, Integrator::symplectic_euler})
+    for (ForceModel m : {ForceModel::spring, ForceModel::linear}) {
+      bool overflow = false;
+      kernel::force_portable(true);
+      const std::uint64_t portable = big_cone_run(i, m, overflow);
+      kernel::force_portable(false);
+      EXPECT_TRUE(overflow) << "the scene must put overflow entries in a whole block";
+      EXPECT_EQ(portable, big_cone_run(i, m, overflow));
+      kernel::force_block_pieces(true);
+      EXPECT_EQ(portable, big_cone_run(i, m, overflow));
+      kernel::force_block_pieces(false);
+    }
+}
+
 TEST(Integrators, AllThreeAgreeOnAPress) {
   // Same scene, three integrators: the dent differs by far less than its depth.
   double height[3];
