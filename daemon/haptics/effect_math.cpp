@@ -42,7 +42,8 @@ StickForce force_from_constant(const ConstantCommand& c) {
 RumbleCommand rumble_from_impulse(double impulse, const RumbleScale& scale) {
   if (!std::isfinite(impulse) || impulse < scale.min_impulse || impulse <= 0 || !(scale.full_scale_impulse > 0))
     return {};
-  const double s = std::min(impulse / scale.full_scale_impulse, 1.0) * 65535.0;
+  const double floor = std::clamp(scale.min_strength, 0.0, 1.0);
+  const double s = (floor + (1.0 - floor) * std::min(impulse / scale.full_scale_impulse, 1.0)) * 65535.0;
   const double ratio = std::clamp(scale.weak_ratio, 0.0, 1.0);
   RumbleCommand r;
   r.strong = static_cast<std::uint16_t>(std::max(1.0, std::round(s)));

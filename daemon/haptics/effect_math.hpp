@@ -24,19 +24,24 @@ struct StickPlane {
   double y_sign = 1.0;
 };
 
+// Measured with the default material (k = 200 N/m) and a 2 cm tool: a light
+// touch gives a few mN, a 1–2 cm push 0.1–1.2 N.
 struct ForceScale {
-  double full_scale_newton = 2.0;  // |f| at which the level saturates (0x7fff)
-  double dead_band_newton = 0.05;  // |f| below this: level 0 (contact noise is not felt)
+  double full_scale_newton = 1.0;  // |f| at which the level saturates (0x7fff)
+  double dead_band_newton = 0.02;  // |f| below this: level 0 (contact noise is not felt)
   double max_level = 0x7fff;       // the clamp; lower it to cap the motor
 };
 
+// The sim's onset impulse is |force|·dt of the first contact tick, and a first
+// contact is shallow: a few µN·s for a slow approach, some mN·s for a hard tap
+// (at 1 kHz). So every onset gets at least min_strength, and harder ones more,
+// up to full strength at full_scale_impulse.
 struct RumbleScale {
-  // The sim's onset impulse is |force|·dt of the first contact tick: about
-  // 1 mN·s for a 1 N touch at 1 kHz. A 2 N touch (at 1 kHz) kicks at full strength.
   double full_scale_impulse = 0.002;  // N·s for a full strong magnitude
-  double min_impulse = 1e-6;          // below this an onset gives no kick
-  double weak_ratio = 0.5;           // weak motor = ratio · strong
-  std::uint16_t length_ms = 60;      // a short kick
+  double min_impulse = 1e-7;          // below this an onset gives no kick
+  double weak_ratio = 0.5;            // weak motor = ratio · strong
+  std::uint16_t length_ms = 60;       // a short kick
+  double min_strength = 0.3;          // of full: the faintest kick (0 = purely proportional)
 };
 
 // The stick-frame force (x right, y down), N.
@@ -70,7 +75,8 @@ ConstantCommand constant_from_force(StickForce f, const ForceScale& scale);
 // (the inverse, for tests and docs): x = L·sin θ, y = −L·cos θ.
 StickForce force_from_constant(const ConstantCommand& c);
 
-// Onset impulse (N·s) → a short FF_RUMBLE kick; none below min_impulse.
+// Onset impulse (N·s) → a short FF_RUMBLE kick: strength min_strength +
+// (1 − min_strength)·min(impulse / full_scale_impulse, 1); none below min_impulse.
 RumbleCommand rumble_from_impulse(double impulse, const RumbleScale& scale);
 
 // Whether `next` differs enough from what the device already has to be worth

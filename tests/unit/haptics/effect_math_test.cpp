@@ -99,7 +99,8 @@ TEST(ProjectToStick, ResistanceIsFeltAgainstTheMotion) {
 }
 
 TEST(RumbleFromImpulse, ScalesClampsAndIgnoresTinyOnes) {
-  const RumbleScale scale{/*full_scale_impulse=*/0.02, /*min_impulse=*/1e-5, /*weak_ratio=*/0.5, 60};
+  const RumbleScale scale{/*full_scale_impulse=*/0.02, /*min_impulse=*/1e-5, /*weak_ratio=*/0.5, 60,
+                          /*min_strength=*/0.0};
   const RumbleCommand half = rumble_from_impulse(0.01, scale);
   EXPECT_EQ(half.strong, 32768);
   EXPECT_EQ(half.weak, 16384);
@@ -113,6 +114,19 @@ TEST(RumbleFromImpulse, ScalesClampsAndIgnoresTinyOnes) {
   EXPECT_FALSE(rumble_from_impulse(std::nan(""), scale).any());
   // Just above the threshold: still a (faint) kick, never a zero one.
   EXPECT_GE(rumble_from_impulse(1.1e-5, scale).strong, 1);
+}
+
+TEST(RumbleFromImpulse, EveryOnsetIsFeltAtLeastAtTheFloor) {
+  const RumbleScale scale{0.002, 1e-7, 0.5, 60, /*min_strength=*/0.25};
+  // A slow approach: a few µN·s. Still a kick worth feeling.
+  const RumbleCommand faint = rumble_from_impulse(2e-6, scale);
+  EXPECT_NEAR(faint.strong, 0.25 * 65535 + 0.75 * 65535 * 0.001, 1.0);
+  EXPECT_NEAR(faint.weak, faint.strong * 0.5, 1.0);
+  EXPECT_EQ(rumble_from_impulse(0.001, scale).strong, std::lround(0.625 * 65535));
+  EXPECT_EQ(rumble_from_impulse(0.5, scale).strong, 0xffff);
+  EXPECT_FALSE(rumble_from_impulse(5e-8, scale).any());  // below min_impulse: none
+  // Harder taps kick harder.
+  EXPECT_LT(rumble_from_impulse(1e-4, scale).strong, rumble_from_impulse(1e-3, scale).strong);
 }
 
 TEST(IsRealChange, LevelStepDirectionStepAndZero) {

@@ -35,7 +35,7 @@ class Engine : public ::testing::Test {
   Engine() {
     settings.min_upload_interval = 25ms;
     settings.force = ForceScale{2.0, 0.05, 0x7fff};
-    settings.rumble = RumbleScale{0.02, 1e-5, 0.5, 60};
+    settings.rumble = RumbleScale{0.02, 1e-5, 0.5, 60, 0.0};
   }
   HapticsEngine& engine() {
     if (!engine_)

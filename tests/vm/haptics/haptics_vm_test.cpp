@@ -74,7 +74,7 @@ HapticsSettings fast_settings() {
   s.min_upload_interval = 20ms;
   s.gain = 0xc000;
   s.force = ForceScale{2.0, 0.05, 0x7fff};
-  s.rumble = RumbleScale{0.02, 1e-5, 0.5, 60};
+  s.rumble = RumbleScale{0.02, 1e-5, 0.5, 60, 0.0};
   return s;
 }
 
