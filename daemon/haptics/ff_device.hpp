@@ -8,7 +8,7 @@
 //   ENOSPC on a new effect                 → no free slot: a rumble gives its slot to the constant
 //                                             (ff_effects_max = 1: the constant wins, or the rumble on
 //                                             rumble-only pads); a constant that still cannot get one
-//                                             is retried on the next change
+//                                             fails (counted) and the caller retries it later
 //   ENODEV                                 → unplugged: stop issuing anything; forget() drops the ids
 #pragma once
 
