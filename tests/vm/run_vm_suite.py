@@ -26,6 +26,8 @@ Environment:
                              killed (default: 60 x slowdown for the boot plus
                              each binary's allowance)
   SCULPTD_VM_REFRESH_KERNEL=1  look for a newer Debian kernel package
+  SCULPT_VM_SLOWDOWN         set for the tests to --slowdown (unless already set):
+                             tests scale their own long waits by it
   XDG_CACHE_HOME             the kernel cache lives in $XDG_CACHE_HOME/sculptd
 Sanitizer (ASAN_OPTIONS, ...) and GTEST_* variables are passed to the guest.
 """
@@ -295,6 +297,9 @@ def main() -> int:
                     help="run systemd-udevd (with the host's rules) in the guest before the tests")
     ap.add_argument("binaries", nargs="+", type=Path)
     args = ap.parse_args()
+    # Tests that wait on something long (a whole replayed session) scale their
+    # own deadlines by this; it reaches the guest like every SCULPT_* variable.
+    os.environ.setdefault("SCULPT_VM_SLOWDOWN", f"{args.slowdown:g}")
     for p in args.with_paths:
         if not p.exists():
             tap(f"Bail out! --with {p}: no such file or directory")

