@@ -111,6 +111,7 @@ void EvdevDevice::handle(const input_event& ev, bool resync, const std::function
         if (!have_msc_) frame_.device_time_us = frame_.kernel_time_us;
         flush(emit, false);
         have_msc_ = false;
+        frame_.resync = false;  // a resync with nothing to report must not flag the next report
       }
       break;
     case EV_MSC:

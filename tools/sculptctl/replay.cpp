@@ -6,6 +6,9 @@
 // daemon scheduling by device time (sculptd --input-clock device) lands them
 // on the same ticks as an in-process replay.
 #include <signal.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <unistd.h>
 #include <time.h>
 
 #include <atomic>
@@ -49,6 +52,16 @@ uinput::DeviceSpec spec_of(const input::DeviceInfo& d) {
   return s;
 }
 
+// With udevd running, waits (bounded) until udev has processed the node:
+// its database entry /run/udev/data/c<major>:<minor> exists.
+void wait_for_udev(const std::string& node) {
+  if (::access("/run/udev/control", F_OK) != 0) return;
+  struct stat st {};
+  if (::stat(node.c_str(), &st) != 0) return;
+  const std::string db = fmt::format("/run/udev/data/c{}:{}", major(st.st_rdev), minor(st.st_rdev));
+  for (int i = 0; i < 400 && ::access(db.c_str(), F_OK) != 0; ++i) ::usleep(5000);  // up to 2 s
+}
+
 timespec add_ns(timespec t, std::int64_t ns) {
   ns += t.tv_nsec;
   t.tv_sec += static_cast<time_t>(ns / 1000000000);
@@ -84,6 +97,9 @@ void run(const ReplayArgs& args) {
     for (const auto& d : reader->header().devices) {
       devices.push_back(std::make_unique<uinput::VirtualDevice>(spec_of(d)));
       devices.back()->set_recording(false);  // answer uploads, count them, keep no log
+      // Clients number devices in plug-in order; with udevd that is the order
+      // udev finishes them, so let it finish each before the next appears.
+      wait_for_udev(devices.back()->event_node());
     }
   } catch (const std::exception& e) {
     fmt::print(stderr, "sculptctl replay: cannot create the virtual devices ({}){}\n", e.what(),

@@ -118,6 +118,29 @@ TEST(Session, ShippedSessionsRead) {
   EXPECT_GE(n, 3u) << "push, pull and two_hands at least, in " << SCULPT_SESSIONS_DIR;
 }
 
+TEST(Session, FastAndFullParsersAgree) {
+  // Spacing, negative values, empty event lists: the fast path or the JSON
+  // parser, the same frame.
+  for (const std::string line : {"[0,0,[[3,0,-5],[1,304,1]]]", " [ 12 , 0 , [ [3, 1, 7] ] ] ", "[5,0,[]]",
+                                 "[7,0,[[3,0,1]],]", "[7,0,[[3,0,1.5]]]", "[1e3,0,[]]"}) {
+    std::string fast_or_error, json_or_error;
+    try {
+      const SessionFrame f = frame_from_json(line, "x", 1);
+      fast_or_error = frame_to_json(f);
+    } catch (const SessionError& e) {
+      fast_or_error = std::string("error: ") + e.what();
+    }
+    EXPECT_FALSE(fast_or_error.empty()) << line;
+    if (line == "[0,0,[[3,0,-5],[1,304,1]]]" || line == "[5,0,[]]") {
+      EXPECT_EQ(fast_or_error, line);
+    }
+    if (line[1] == '7' || line[1] == '1') {
+      EXPECT_EQ(fast_or_error.rfind("error: x: ", 0), 0u) << fast_or_error;
+    }
+  }
+  EXPECT_EQ(frame_to_json(frame_from_json(" [ 12 , 0 , [ [3, 1, 7] ] ] ", "x", 1)), "[12,0,[[3,1,7]]]");
+}
+
 TEST(Session, MissingFileNamesIt) {
   try {
     SessionReader r("/nonexistent/session.jsonl");

@@ -128,7 +128,12 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   EXPECT_TRUE(pad->info.has_msc_timestamp);
   EXPECT_EQ(stick->info.kind, DeviceKind::joystick);
   EXPECT_TRUE(stick->info.ff.empty());
-  EXPECT_LT(pad->slot, stick->slot) << "created in the header's order";
+  // Slots follow plug-in order. Without udev that is creation order; with
+  // udevd it is the order udev finishes (replay waits for each, but udev's
+  // broadcast may still overtake): only the plain path asserts it.
+  if (!vmtest::udev_running()) {
+    EXPECT_LT(pad->slot, stick->slot) << "created in the header's order";
+  }
 
   // A force-feedback client (like sculptd's haptics thread, on its own
   // thread) is answered at once instead of blocking for 30 s. Meanwhile this
