@@ -93,6 +93,7 @@ void World<S>::step(std::span<const Tool> tools) {
   ++tick_;
   stats_ = {};
   change_count_ = 0;
+  collision_ns_ = 0;
   const double dt = 1.0 / settings_.rate_hz;
   for (std::uint32_t t = 0; t < tool_slots_; ++t) {
     ToolTrack& tr = tracks_[t];
@@ -546,7 +547,9 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
 template <class S>
 void World<S>::step_body(std::uint32_t bi) {
   Body<S>& b = bodies_[bi];
+  const std::uint64_t c0 = stage_clock_ ? stage_clock_() : 0;
   for (std::uint32_t t = 0; t < tool_slots_; ++t) broadphase(b, t);
+  if (stage_clock_) collision_ns_ += stage_clock_() - c0;
   if (awake_total_[bi] == 0) return;  // the whole mesh sleeps: it costs this much
 
   const int nsub = substeps(bi);
@@ -663,6 +666,7 @@ void World<S>::step_body(std::uint32_t bi) {
         account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
       }
     }
+    const std::uint64_t n0 = stage_clock_ ? stage_clock_() : 0;
     for (std::uint32_t t = 0; t < tool_slots_; ++t) {
       ToolContact<S>& tc = b.tools[t];
       if (tc.candidate_count == 0 || tc.grabbing) continue;
@@ -671,6 +675,7 @@ void World<S>::step_body(std::uint32_t bi) {
       for (int k = 0; k < 3; ++k)  // tick average of the substeps' contact forces
         tracks_[t].force[k] = before[k] + (tracks_[t].force[k] - before[k]) / nsub;
     }
+    if (stage_clock_) collision_ns_ += stage_clock_() - n0;
     if (!b.pinned.empty())
       for (std::uint32_t q = 0; q < b.awake_count; ++q) apply_pins(b, b.awake_list[q], S(1) / dts);
   }

@@ -55,6 +55,15 @@ class World {
   // tools beyond the slots are ignored (TickStats::ignored_tools counts them).
   void step(std::span<const Tool> tools);
 
+  // Optional stage timing, for the daemon's stats: with a clock (nanoseconds,
+  // any fixed origin; it must not allocate or block) step() adds up the time
+  // spent finding and resolving contacts (broadphase + narrow phase), so
+  // collision_ns() of the last step can be told from integration. No clock,
+  // no cost. Timing only: it changes no result.
+  using StageClock = std::uint64_t (*)();
+  void set_stage_clock(StageClock clock) { stage_clock_ = clock; }
+  std::uint64_t collision_ns() const { return collision_ns_; }
+
   std::span<const ToolFeedback> feedback() const { return feedback_; }
   const TickStats& stats() const { return stats_; }
   std::span<const ChangeRange> changes() const { return {changes_.data(), change_count_}; }
@@ -121,6 +130,8 @@ class World {
   TickStats stats_;
   std::uint64_t tick_ = 0;
   std::uint64_t blowups_total_ = 0;
+  StageClock stage_clock_ = nullptr;
+  std::uint64_t collision_ns_ = 0;
 };
 
 extern template class World<float>;

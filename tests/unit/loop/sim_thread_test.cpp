@@ -130,6 +130,9 @@ TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
   EXPECT_EQ(thread.stats().jitter.count(), 300u);
   EXPECT_EQ(s.vertices_total, world.body(0).n);
   EXPECT_GE(s.jitter_us.max, s.jitter_us.p99);
+  // The world's stage clock tells collision from integration.
+  EXPECT_GT(thread.stats().stage[static_cast<int>(Stage::collision)].max_ns(), 0u);
+  EXPECT_GT(thread.stats().stage[static_cast<int>(Stage::integration)].max_ns(), 0u);
 }
 
 TEST(SimThread, StopIsPromptAndIdempotent) {
