@@ -125,6 +125,7 @@ struct DeviceManager::Impl {
     const int fd = dev->fd();
     const DeviceInfo copy = info;
     open.emplace(fd, std::move(dev));
+    changed();
     listener.on_attach(static_cast<std::uint8_t>(slot), copy);
     return true;
   }
@@ -138,6 +139,10 @@ struct DeviceManager::Impl {
     open.erase(it);  // closes the fd
     slots[slot].live = false;
     slots[slot].released = ++releases;
+    // Every change, at once: a detach and an attach in one dispatch can leave
+    // the fd count, even the fd numbers, as they were, yet the new node's
+    // file is not the one the owner registered.
+    changed();
     listener.on_detach(slot);
   }
 
@@ -302,20 +307,14 @@ void DeviceManager::on_fds_changed(std::function<void()> callback) { impl_->fds_
 void DeviceManager::dispatch(int fd) {
   Impl& m = *impl_;
   if (!m.started) return;
-  const std::size_t before = m.open.size();
-  bool changed = false;
   if (fd == m.discovery_fd()) {
     if (m.use_udev) m.read_udev();
     else m.read_inotify();
   } else if (auto it = m.open.find(fd); it != m.open.end()) {
     int err = 0;
     const auto r = it->second->read([&](const InputFrame& f) { m.listener.on_frame(f); }, &err);
-    if (r == EvdevDevice::ReadResult::gone) {
-      m.detach(fd, err == ENODEV ? "unplugged" : std::strerror(err));
-      changed = true;
-    }
+    if (r == EvdevDevice::ReadResult::gone) m.detach(fd, err == ENODEV ? "unplugged" : std::strerror(err));
   }
-  if (changed || m.open.size() != before) m.changed();
 }
 
 std::string_view DeviceManager::discovery() const {

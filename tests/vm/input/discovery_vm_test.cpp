@@ -164,6 +164,26 @@ TEST_F(Discovery, UnplugIsDetachAndReplugGetsTheSameSlot) {
   EXPECT_EQ(manager->fds().size(), 3u);
 }
 
+TEST_F(Discovery, EveryFdChangeIsAnnouncedEvenWhenTheCountStaysTheSame) {
+  // sculptd re-registers its fds on the callback only. An unplug and a replug
+  // handled in one dispatch leave one device fd (often with the same number)
+  // but a different file: both changes must be announced.
+  start();
+  int announced = 0;
+  manager->on_fds_changed([&] { ++announced; });
+  VirtualJoystick pad(JoystickSpec::gamepad().named("vm quick replug pad"));
+  ASSERT_NE(wait_attach("vm quick replug pad"), nullptr);
+  EXPECT_EQ(announced, 1);
+  events.attaches.clear();
+  pad.unplug();
+  pad.plug();  // no dispatch in between
+  ASSERT_NE(wait_attach("vm quick replug pad"), nullptr);
+  EXPECT_GE(announced, 3) << "a detach and an attach, each announced";
+  EXPECT_EQ(manager->attached(), 1u);
+  pad.move_axis(ABS_X, 7777);
+  ASSERT_TRUE(wait([&] { return events.state(0)[{EV_ABS, ABS_X}] == 7777; }));
+}
+
 TEST_F(Discovery, DrivesToolsEndToEndThroughTheMapper) {
   // The io → sim path of sculptd without the daemon: manager → router →
   // messages → ControlMapper.
