@@ -12,7 +12,13 @@
 // time (ifunc). -ffp-contract=off (top-level meson.build) keeps the two clones
 // from fusing multiply-adds differently. SCULPT_SIM_KERNEL_NS lets a test build
 // a second, clone-free copy of this file to compare against.
-#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+//
+// GCC only: clang 14 compiles an externally visible target_clones function as
+// the AVX2 clone alone (no default clone, no resolver), so a CPU without AVX2
+// (qemu's default model in the VM suite, older hosts) dies of SIGILL. Under
+// clang the portable kernels are built once for plain x86-64; the hand-written
+// AVX2 path below is still chosen at run time from __builtin_cpu_supports.
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES) && !defined(__clang__)
 #define SCULPT_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define SCULPT_CLONES
@@ -890,7 +896,9 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
 }
 
 const char* active_clone() {
-#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES) && defined(__clang__)
+  return "none (clang)";
+#elif defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   return g_has_avx2 ? "avx2" : "default";
 #else
   return "none";
