@@ -136,7 +136,7 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "haptics",
              {"enabled", "poll_interval_ms", "min_upload_interval_ms", "gain", "constant", "rumble_on_onset",
               "full_scale_newton", "dead_band_newton", "max_level", "rumble_full_scale_impulse",
-              "rumble_min_impulse", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step"});
+              "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step"});
   const Reader r{file, t, "haptics"};
   auto& h = c.haptics;
   r.get("enabled", h.enabled);
@@ -151,6 +151,7 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("max_level", h.force.max_level, 0.0, 32767.0);
   r.get("rumble_full_scale_impulse", h.rumble.full_scale_impulse, 1e-9, 1e6);
   r.get("rumble_min_impulse", h.rumble.min_impulse, 0.0, 1e6);
+  r.get("rumble_min_strength", h.rumble.min_strength, 0.0, 1.0);
   r.get("rumble_weak_ratio", h.rumble.weak_ratio, 0.0, 1.0);
   int len = h.rumble.length_ms;
   if (r.get("rumble_length_ms", len, 1, 10000)) h.rumble.length_ms = static_cast<std::uint16_t>(len);
