@@ -3,56 +3,11 @@
 // is counted.
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input_test_util.hpp"
+#include "support/allocation_counter.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}
-
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  const std::size_t al = static_cast<std::size_t>(a);
-  return std::aligned_alloc(al, (n + al - 1) / al * al);
-}
-void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t& t) noexcept {
-  return operator new(n, a, t);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 namespace sculpt::input {
 namespace {
@@ -80,7 +35,8 @@ TEST(RealTime, ControlMapperDoesNotAllocate) {
   concurrency::SpscRing<InputMessage> ring(script.size());
   ControlMapper mapper(2);
 
-  const long before = g_allocations.load();
+  support::count_allocations_on_this_thread(true);
+  const long before = support::counted_allocations();
   for (const auto& m : script) ASSERT_TRUE(ring.try_push(m));
   std::size_t applied = 0;
   float sum = 0;
@@ -89,7 +45,8 @@ TEST(RealTime, ControlMapperDoesNotAllocate) {
     for (const ToolControl& c : mapper.controls()) sum += c.stick[0] + c.stick[1] + c.stick[2];
   }
   for (const auto& m : script) mapper.apply(m);
-  const long after = g_allocations.load();
+  const long after = support::counted_allocations();
+  support::count_allocations_on_this_thread(false);
   EXPECT_EQ(after - before, 0) << "ControlMapper allocated on the simulation thread's path";
   EXPECT_EQ(applied, script.size());
   EXPECT_GT(mapper.controls()[1].shape_toggles, 0u);

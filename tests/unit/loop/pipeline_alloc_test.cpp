@@ -7,8 +7,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <cstdlib>
-#include <new>
 #include <thread>
 
 #include "haptics/feedback_board.hpp"
@@ -16,55 +14,7 @@
 #include "loop/sim_thread.hpp"
 #include "main/pipeline.hpp"
 #include "sim/shapes.hpp"
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<std::thread::id> g_sim_thread{};
-std::atomic<long> g_allocations{0};
-void count() {
-  if (g_counting.load(std::memory_order_relaxed) && std::this_thread::get_id() == g_sim_thread.load())
-    g_allocations.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-
-void* operator new(std::size_t n) {
-  count();
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  count();
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  count();
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  count();
-  const std::size_t al = static_cast<std::size_t>(a);
-  return std::aligned_alloc(al, (n + al - 1) / al * al);
-}
-void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t& t) noexcept {
-  return operator new(n, a, t);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "support/allocation_counter.hpp"
 
 namespace sculpt::daemon {
 namespace {
@@ -76,7 +26,7 @@ struct Marking : loop::TickStages {
   explicit Marking(SculptStages& s) : stages(s) {}
   SculptStages& stages;
   void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
-    if (g_sim_thread.load() != std::this_thread::get_id()) g_sim_thread = std::this_thread::get_id();
+    support::count_allocations_on_this_thread(true);
     stages.input(tick, tools);
   }
   void publish(std::uint64_t tick, const sim::World<float>& world) override { stages.publish(tick, world); }
@@ -110,8 +60,7 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   loop::SimThreadOptions o;
   o.max_ticks = 600;
   loop::SimThread thread(world, marking, 1, o);
-  g_allocations = 0;
-  g_counting = true;
+  support::reset_counted_allocations();
   thread.start();
   // Frames keep arriving while it runs: full deflection down.
   for (int i = 0; i < 200 && !thread.finished(); ++i) {
@@ -124,10 +73,9 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   }
   while (!thread.finished()) std::this_thread::sleep_for(1ms);
   thread.stop();
-  g_counting = false;
   EXPECT_GT(stages.applied(), 1u);
   EXPECT_GT(board.read(0).onsets, 0u) << "the tool never touched the ball";
-  EXPECT_EQ(g_allocations.load(), 0) << "the sim thread allocated";
+  EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated";
 }
 
 }  // namespace

@@ -5,63 +5,13 @@
 
 #include <atomic>
 #include <chrono>
-#include <cstdlib>
-#include <new>
 #include <thread>
 
 #include "loop/sim_thread.hpp"
 #include "loop/stats_json.hpp"
 #include "loop/tool_driver.hpp"
 #include "sim/shapes.hpp"
-
-namespace {
-// Allocations made on the sim thread once it has started ticking.
-thread_local bool t_counting = false;
-std::atomic<long> g_sim_thread_allocations{0};
-
-void count() {
-  if (t_counting) g_sim_thread_allocations.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-
-void* operator new(std::size_t n) {
-  count();
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void* operator new(std::size_t n, std::align_val_t a) {
-  count();
-  const std::size_t al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (n + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  count();
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
-void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  count();
-  const std::size_t al = static_cast<std::size_t>(a);
-  return std::aligned_alloc(al, (n + al - 1) / al * al);
-}
-void* operator new[](std::size_t n, std::align_val_t a, const std::nothrow_t& t) noexcept {
-  return operator new(n, a, t);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "support/allocation_counter.hpp"
 
 namespace sculpt::loop {
 namespace {
@@ -84,7 +34,7 @@ struct PressStages : TickStages {
   std::uint64_t slow_at = ~std::uint64_t{0};
 
   void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
-    t_counting = true;
+    support::count_allocations_on_this_thread(true);
     if (tick != inputs.load()) out_of_order = true;
     DriveInput in;
     in.connected = true;
@@ -169,12 +119,12 @@ TEST(SimThread, NothingIsAllocatedOnTheSimThreadOnceItRuns) {
   SimThreadOptions o;
   o.max_ticks = 500;
   SimThread thread(world, stages, 1, o);
-  g_sim_thread_allocations = 0;
+  support::reset_counted_allocations();
   thread.start();
   ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
   thread.stop();
   EXPECT_GT(stages.contacts.load(), 0u);
-  EXPECT_EQ(g_sim_thread_allocations.load(), 0) << "the sim thread allocated while ticking";
+  EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated while ticking";
 }
 
 TEST(SimThread, BadRatesAreRejected) {
