@@ -1,9 +1,19 @@
 # sculpt.capnp — the one wire protocol of sculptd (daemon ⇄ viewers ⇄ sculptctl).
 #
-# Versioning: `protocolMajor` changes only on incompatible changes; a client
-# with another major is refused at `Sculptd.hello` with a reason. Minor
-# versions only add fields (Cap'n Proto keeps old readers working).
+# Transport: Cap'n Proto RPC (two-party, unpacked) over a Unix stream socket.
+# The bootstrap capability is `Sculptd`; it only offers `hello`. A client
+# whose major version the daemon speaks gets a `Session`, through which
+# everything else goes; any other major is refused with a reason and no
+# session, so an incompatible client can never misread a stream.
+#
+# Versioning: `protocolMajor` changes only on incompatible changes. Minor
+# versions only add fields and methods (Cap'n Proto keeps old readers working).
 # Field-by-field documentation lives in docs/protocol.md.
+#
+# Units: metres, seconds, newtons, kilograms. Positions travel as `Data`
+# holding packed little-endian float32 x,y,z triples (12 bytes per vertex):
+# a List(Float32) would cost the same bytes but one bounds-checked accessor
+# call per float on the reading side.
 
 @0xef27fb8c011909fa;
 
@@ -16,6 +26,13 @@ struct Vec3 {
   x @0 :Float32;
   y @1 :Float32;
   z @2 :Float32;
+}
+
+struct Quat {
+  w @0 :Float32 = 1.0;
+  x @1 :Float32;
+  y @2 :Float32;
+  z @3 :Float32;
 }
 
 struct Aabb {
@@ -31,22 +48,24 @@ enum ForceModel {
 struct Material {
   name @0 :Text;
   model @1 :ForceModel;
-  mass @2 :Float32;        # kg per vertex
-  stiffness @3 :Float32;   # N/m per spring
-  damping @4 :Float32;     # N·s/m per spring
-  anchor @5 :Float32;      # N/m towards the rest pose
-  plastic @6 :Bool;        # clay: the rest shape yields
-  yieldStrain @7 :Float32;
+  mass @2 :Float32;          # kg per vertex
+  stiffness @3 :Float32;     # N/m per spring
+  damping @4 :Float32;       # N·s/m per spring (the parallel damper)
+  anchor @5 :Float32;        # N/m towards the rest pose
+  plastic @6 :Bool;          # clay: the rest shape yields
+  yieldStrain @7 :Float32;   # relative strain beyond which clay yields
+  gravity @8 :Bool;
 }
 
-struct MeshTopology {
-  id @0 :UInt32;
+struct Mesh {
+  id @0 :UInt32;                   # stable for the life of the loaded scene
   name @1 :Text;
-  triangles @2 :List(UInt32);      # 3 indices per triangle
-  restPositions @3 :Data;          # float32 x,y,z per vertex, little-endian
-  positions @4 :Data;              # float32 x,y,z per vertex, little-endian
+  triangles @2 :List(UInt32);      # 3 vertex indices per triangle
+  restPositions @3 :Data;          # float32 x,y,z per vertex
+  positions @4 :Data;              # float32 x,y,z per vertex, the current shape
   material @5 :Material;
-  bounds @6 :Aabb;
+  bounds @6 :Aabb;                 # of the current positions
+  sleeping @7 :Bool;
 }
 
 enum ToolShape {
@@ -54,37 +73,45 @@ enum ToolShape {
   capsule @1;
 }
 
-struct ToolState {
+struct Tool {
   id @0 :UInt32;
   shape @1 :ToolShape;
   radius @2 :Float32;
-  halfLength @3 :Float32;          # capsule only
+  halfLength @3 :Float32;          # capsule only: half the distance between its end centres
   position @4 :Vec3;
-  orientation @5 :List(Float32);   # quaternion w,x,y,z
-  grabbing @6 :Bool;
-  contactForce @7 :Vec3;           # newtons, reaction on the tool
-  contacts @8 :UInt32;
+  orientation @5 :Quat;
+  velocity @6 :Vec3;
+  grabbing @7 :Bool;
+  contactForce @8 :Vec3;           # newtons: the reaction of the mesh on the tool
+  contacts @9 :UInt32;             # vertices in contact this tick
+  deviceSlot @10 :Int32 = -1;      # which device slot drives it (-1: none)
 }
 
 struct Snapshot {
-  sequence @0 :UInt64;
+  sequence @0 :UInt64;             # the sim tick it shows; frames continue from it
   simTimeNs @1 :UInt64;
-  meshes @2 :List(MeshTopology);
-  tools @3 :List(ToolState);
+  meshes @2 :List(Mesh);
+  tools @3 :List(Tool);
   sceneBounds @4 :Aabb;
+  scene @5 :Text;                  # where the scene came from (a path or "builtin:default")
+  rateHz @6 :Float32;
 }
 
 struct MeshDelta {
   meshId @0 :UInt32;
-  indices @1 :List(UInt32);        # vertices that moved beyond the viewer's tolerance
-  positions @2 :Data;              # float32 x,y,z per listed index
+  indices @1 :List(UInt32);        # ascending: vertices that moved beyond the viewer's tolerance
+  positions @2 :Data;              # float32 x,y,z per listed index, in the same order
+  bounds @3 :Aabb;                 # of the current positions (for the viewer's boxes)
 }
 
 struct DeltaFrame {
-  sequence @0 :UInt64;
+  sequence @0 :UInt64;             # sim tick; strictly increasing per viewer, gaps = coalesced ticks
   simTimeNs @1 :UInt64;
-  meshes @2 :List(MeshDelta);
-  tools @3 :List(ToolState);
+  publishedNs @2 :Int64;           # CLOCK_MONOTONIC when the sim published this tick (latency)
+  meshes @3 :List(MeshDelta);      # only meshes with changes; empty in a keep-alive
+  tools @4 :List(Tool);            # every tool, every frame (a few dozen bytes each)
+  stats @5 :Stats;                 # set at most about once a second (the viewer's overlay)
+  hasStats @6 :Bool;
 }
 
 struct Quantiles {
@@ -93,22 +120,57 @@ struct Quantiles {
   max @2 :Float32;
 }
 
+struct StageTime {
+  stage @0 :Text;                  # input, collision, integration, publish
+  us @1 :Quantiles;
+}
+
 struct Stats {
   rateHz @0 :Float32;
   ticks @1 :UInt64;
   overruns @2 :UInt64;
   jitterUs @3 :Quantiles;
-  verticesTotal @4 :UInt64;
-  verticesAwake @5 :UInt64;
-  viewers @6 :UInt32;
-  devices @7 :UInt32;
-  ffUploads @8 :UInt64;
-  bytesSent @9 :UInt64;
-  blowups @10 :UInt64;
+  stageUs @4 :List(StageTime);
+  verticesTotal @5 :UInt64;
+  verticesAwake @6 :UInt64;
+  viewers @7 :UInt32;
+  devices @8 :UInt32;
+  ffUploads @9 :UInt64;
+  bytesSent @10 :UInt64;
+  blowups @11 :UInt64;
+  paused @12 :Bool;
+  uptimeS @13 :Float64;
+  scene @14 :Text;
+  simTimeNs @15 :UInt64;
+}
+
+enum FfSupport {
+  none @0;
+  rumble @1;                       # rumble kicks only
+  constant @2;                     # constant force (and rumble when the device has it)
+}
+
+struct Device {
+  slot @0 :UInt32;                 # stays with the device across unplug/plug
+  name @1 :Text;
+  node @2 :Text;                   # /dev/input/eventN ("" while unplugged)
+  vendor @3 :UInt16;
+  product @4 :UInt16;
+  kind @5 :Text;                   # "gamepad", "joystick"
+  connected @6 :Bool;
+  ff @7 :FfSupport;
+  tools @8 :List(UInt32);          # tool ids it drives
+  ffUploads @9 :UInt64;
+}
+
+struct Result {
+  ok @0 :Bool;
+  error @1 :Text;                  # what went wrong, naming the file/field, when not ok
 }
 
 # Receives the stream; the daemon calls it. `-> stream` gives per-viewer flow
-# control, so a slow viewer is coalesced rather than queued.
+# control: while a viewer has not taken its last frame the daemon does not
+# queue more, it coalesces (the next frame carries the latest state).
 interface Viewer {
   snapshot @0 (snapshot :Snapshot) -> stream;
   frame @1 (frame :DeltaFrame) -> stream;
@@ -116,12 +178,29 @@ interface Viewer {
 
 interface Sculptd {
   hello @0 (major :UInt16, minor :UInt16, client :Text)
-      -> (accepted :Bool, reason :Text, major :UInt16, minor :UInt16, server :Text);
-  status @1 () -> (stats :Stats);
-  subscribe @2 (viewer :Viewer, toleranceMm :Float32, maxFps :Float32) -> (subscription :Subscription);
+      -> (accepted :Bool, reason :Text, major :UInt16, minor :UInt16, server :Text, session :Session);
+}
+
+interface Session {
+  status @0 () -> (stats :Stats);
+  devices @1 () -> (devices :List(Device));
+  # The whole current state, once (sculptctl save exports it on the client side,
+  # with the user's own permissions, in the format its file name asks for).
+  snapshot @2 () -> (snapshot :Snapshot);
+  # Starts a stream to `viewer`: a snapshot, then delta frames at most
+  # `maxFps` a second carrying vertices that moved more than `toleranceM`
+  # (metres) since what this viewer last received. Dropping the returned
+  # capability (or disconnecting) ends it.
+  subscribe @3 (viewer :Viewer, toleranceM :Float32, maxFps :Float32) -> (subscription :Subscription);
+  # A scene file on the daemon's side (an absolute path, or "builtin:default").
+  # The current sculpt is kept when loading fails.
+  loadScene @4 (path :Text) -> (result :Result);
+  reset @5 () -> (result :Result);   # every mesh back to its rest shape as loaded
+  pause @6 () -> (result :Result);
+  resume @7 () -> (result :Result);
 }
 
 interface Subscription {
-  # Dropping the capability unsubscribes.
   setRate @0 (maxFps :Float32);
+  setTolerance @1 (toleranceM :Float32);
 }

@@ -88,12 +88,16 @@ class Reporter:
         self.done = False
         self.guest_error: str | None = None
         self.ended: set[str] = set()
+        # (name, why, output) of every failed result, repeated at the very end:
+        # meson prints only the tail of a long log, and that is what CI shows.
+        self.failed: list[tuple[str, str, list[str]]] = []
         tap(f"1..{sum(len(b.tests) + 1 for b in binaries)}")
 
     def result(self, ok: bool, name: str, directive: str = "", detail: list[str] | None = None) -> None:
         self.number += 1
         if not ok:
             self.failures += 1
+            self.failed.append((name, directive, list(detail or [])))
         tap(f"{'ok' if ok else 'not ok'} {self.number} - {name}{' # ' + directive if directive else ''}")
         for line in detail or []:
             tap(f"# {line}")
@@ -152,6 +156,22 @@ class Reporter:
         for b in self.order:
             if b.name not in self.ended:
                 self.end(b.name, None, why)
+
+
+def print_failure_digest(rep: Reporter, budget: int = 70) -> None:
+    """Each failure again, with the last lines of its output, within `budget`
+    lines in all: the end of the log is the part everyone gets to see."""
+    if not rep.failed:
+        return
+    log(f"--- {len(rep.failed)} failed results ---")
+    for name, why, output in rep.failed:
+        log(f"FAILED {name}{': ' + why if why else ''}")
+        keep = max(0, min(len(output), budget // len(rep.failed)))
+        shown = output[len(output) - keep:]
+        for line in shown:
+            print(f"  | {line}", file=sys.stderr)
+        budget -= len(shown) + 1
+    sys.stderr.flush()
 
 
 def describe(status: int | None) -> str:
@@ -362,6 +382,7 @@ def main() -> int:
         tap(f"Bail out! {str(e).splitlines()[0]}")
         return 1
     ran = sum(len(b.reported) for b in binaries)
+    print_failure_digest(rep)
     log(f"{ran} tests in {len(binaries)} binaries, {rep.failures} failed results, "
         f"{time.monotonic() - start:.1f} s in all")
     return 1 if rep.failures else 0

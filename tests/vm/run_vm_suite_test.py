@@ -79,6 +79,16 @@ class RunnerTest(unittest.TestCase):
         self.assertEqual(sum(l.startswith(("ok", "not ok")) for l in tap), 4)
         self.assertEqual(rep.failures, 2)   # the case and the binary's exit status
 
+    def test_failures_are_repeated_at_the_end_where_a_short_log_shows_them(self):
+        rep, _ = self.run_host("fail")
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            runner.print_failure_digest(rep, budget=10)
+        lines = err.getvalue().splitlines()
+        self.assertIn("vm: FAILED fake_test Suite.Second", lines)
+        self.assertIn("  | x.cpp:3: Failure", lines)
+        self.assertLessEqual(len(lines), 1 + 10 + len(rep.failed))
+
     def test_a_crash_names_the_running_case_and_fails_the_rest(self):
         rep, tap = self.run_host("crash")
         self.assertIn("not ok 2 - fake_test Suite.Second # killed by signal 11 while running it", tap)
