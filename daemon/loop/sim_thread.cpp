@@ -56,6 +56,7 @@ SimThread::SimThread(sim::World<float>& world, TickStages& stages, std::size_t t
   std::uint64_t total = 0;
   for (std::size_t b = 0; b < world.body_count(); ++b) total += world.body(b).n;
   store(stats_.vertices_total, total);
+  store(stats_.ticks, options.first_tick);
 }
 
 SimThread::~SimThread() { stop(); }
@@ -83,6 +84,8 @@ RealtimeResult SimThread::start() {
   return rt;
 }
 
+bool SimThread::request_pause(bool paused) { return commands_.try_push(paused ? 1 : 0); }
+
 void SimThread::stop() {
   stop_.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
@@ -94,7 +97,7 @@ void SimThread::run() {
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   const std::int64_t period = period_ns_;
   std::int64_t deadline = monotonic_ns() + period;
-  std::uint64_t tick = world_.tick();
+  std::uint64_t tick = world_.tick() + options_.first_tick;
   auto& stage = stats_.stage;
   while (!stop_.load(std::memory_order_acquire)) {
     const timespec ts = to_timespec(deadline);
@@ -102,6 +105,17 @@ void SimThread::run() {
     }
     const std::int64_t t0 = monotonic_ns();
     stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));
+    stats_.heartbeats.store(stats_.heartbeats.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+    while (const std::uint8_t* c = commands_.peek()) {
+      stats_.paused.store(*c != 0, std::memory_order_release);
+      commands_.pop();
+    }
+    if (stats_.paused.load(std::memory_order_relaxed)) {
+      deadline += period;
+      const std::int64_t now = monotonic_ns();
+      if (now > deadline) deadline += ((now - deadline) / period + 1) * period;
+      continue;
+    }
 
     stages_.input(tick, tools_);
     const std::int64_t t1 = monotonic_ns();

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "concurrency/spsc_ring.hpp"
 #include "loop/histogram.hpp"
 #include "sim/tool.hpp"
 #include "sim/world.hpp"
@@ -33,7 +34,9 @@ const char* stage_name(Stage s);
 
 // Written by the sim thread only; read from anywhere.
 struct LoopStats {
-  std::atomic<std::uint64_t> ticks{0};
+  std::atomic<std::uint64_t> ticks{0};             // simulated ticks (a paused loop adds none)
+  std::atomic<std::uint64_t> heartbeats{0};        // loop periods run, paused or not (the watchdog's)
+  std::atomic<bool> paused{false};
   std::atomic<std::uint64_t> overruns{0};         // ticks whose work ended past the next deadline
   std::atomic<std::uint64_t> skipped_periods{0};  // whole periods dropped to get back on schedule
   std::atomic<std::uint64_t> vertices_total{0};
@@ -50,6 +53,10 @@ struct SimThreadOptions {
   std::uint64_t max_ticks = 0;   // stop by itself after this many ticks (0: run until stop())
   bool realtime = false;         // SCHED_FIFO + mlockall, when permitted
   int realtime_priority = 50;    // SCHED_FIFO priority, 1..99
+  // The tick number of the world's first tick here (a scene swapped in mid-run
+  // continues the old timeline: queued inputs and viewers' sequences go on).
+  // The stats' tick count starts there too.
+  std::uint64_t first_tick = 0;
 };
 
 // Outcome of asking for real-time scheduling: what worked and, if not, why.
@@ -75,6 +82,12 @@ class SimThread {
   RealtimeResult start();
   // Asks the thread to stop after its current tick and joins it. Idempotent.
   void stop();
+  // Control from one other thread (the io thread), applied at the next tick
+  // boundary through a lock-free ring: a paused loop keeps its period (and
+  // heartbeats) but runs no stage and no step. False when the ring is full.
+  bool request_pause(bool paused);
+  bool paused() const { return stats_.paused.load(std::memory_order_acquire); }
+
   // The thread has left its loop (stop(), max_ticks reached).
   bool finished() const { return finished_.load(std::memory_order_acquire); }
 
@@ -91,6 +104,7 @@ class SimThread {
   SimThreadOptions options_;
   std::int64_t period_ns_;
   LoopStats stats_;
+  concurrency::SpscRing<std::uint8_t> commands_{64};  // 1: pause, 0: resume
   std::atomic<bool> stop_{false};
   std::atomic<bool> finished_{false};
   std::thread thread_;

@@ -17,7 +17,8 @@ void add_options(CLI::App& app, CliOptions& o) {
          "config file (TOML; default /etc/sculptd/sculptd.conf, which may be absent)")
       ->type_name("PATH");
   optional_option(app, "--scene", o.scene, "scene file (TOML), or builtin:default (the default)");
-  optional_option(app, "--socket", o.socket, "control/streaming socket path (default /run/sculptd/sculptd.sock)");
+  optional_option(app, "--socket", o.socket, "control/streaming socket path (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY/sculptd.sock, "
+                  "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)");
   optional_option(app, "--rate", o.rate_hz, "simulation rate in Hz (default: the scene's, 1000)");
   optional_option(app, "--input", o.input, "auto | evdev | replay:FILE (default auto)");
   optional_option(app, "--input-clock", o.input_clock,

@@ -18,7 +18,10 @@
 namespace sculpt::daemon {
 
 inline constexpr const char* kDefaultConfigPath = "/etc/sculptd/sculptd.conf";
-inline constexpr const char* kDefaultSocketPath = "/run/sculptd/sculptd.sock";
+// No socket given (flag or config file): the path follows the clients' rule
+// (client/socket_path.hpp: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY,
+// $XDG_RUNTIME_DIR/sculptd, /run/sculptd/sculptd.sock).
+inline constexpr const char* kDefaultSocketPath = "";
 
 class ConfigError : public std::runtime_error {
  public:

@@ -16,6 +16,8 @@
 #include <memory>
 #include <optional>
 #include <system_error>
+#include <map>
+#include <linux/input.h>
 
 #include <kj/async-io.h>
 #include <kj/async-unix.h>
@@ -33,7 +35,11 @@
 #include "main/log.hpp"
 #include "main/notify.hpp"
 #include "main/pipeline.hpp"
+#include "client/socket_path.hpp"
 #include "scene/scene.hpp"
+#include "server/listener.hpp"
+#include "server/published_state.hpp"
+#include "server/server.hpp"
 #include "sim/world.hpp"
 
 namespace sculpt::daemon {
@@ -116,7 +122,53 @@ void write_file(const std::string& path, const std::string& text, const char* wh
   if (!out) throw std::runtime_error(std::string(what) + ": cannot write " + path);
 }
 
-class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler {
+// What streaming clients need to know about a scene that never changes while it is loaded.
+server::SceneInfo scene_info(const scene::Scene& s, double rate_hz) {
+  server::SceneInfo info;
+  info.scene = s.file.string();
+  info.rate_hz = rate_hz;
+  for (const auto& m : s.meshes) {
+    server::MeshInfo mi;
+    mi.name = m.name;
+    const auto& mesh = m.loaded.mesh;
+    mi.triangles.reserve(mesh.triangles.size() * 3);
+    for (const auto& t : mesh.triangles) mi.triangles.insert(mi.triangles.end(), t.begin(), t.end());
+    mi.rest.reserve(mesh.positions.size() * 3);
+    for (const auto& p : mesh.positions) mi.rest.insert(mi.rest.end(), p.begin(), p.end());
+    const sim::Material& mat = s.material_of(m);
+    mi.material = m.material;
+    mi.linear_model = mat.model != sim::ForceModel::spring;
+    mi.mass = static_cast<float>(mat.mass);
+    mi.stiffness = static_cast<float>(mat.stiffness);
+    mi.damping = static_cast<float>(mat.damping);
+    mi.anchor = static_cast<float>(mat.anchor);
+    mi.plastic = mat.plastic;
+    mi.yield_strain = static_cast<float>(mat.yield_strain);
+    mi.gravity = mat.gravity;
+    info.meshes.push_back(std::move(mi));
+  }
+  for (const auto& t : s.tools) {
+    server::ToolInfo ti;
+    ti.capsule = t.shape == scene::ToolShape::capsule;
+    ti.radius = static_cast<float>(t.radius);
+    ti.half_length = static_cast<float>(t.half_length);
+    ti.device_slot = -1;
+    info.tools.push_back(ti);
+  }
+  return info;
+}
+
+// One scene's simulation: everything a scene swap replaces at once.
+struct SimParts {
+  scene::Scene scene;
+  double rate = 0;
+  std::size_t tools = 0;
+  std::unique_ptr<sim::World<float>> world;
+  std::unique_ptr<SculptStages> stages;
+  std::unique_ptr<server::PublishedState> published;
+};
+
+class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::Control {
  public:
   Daemon(RunOptions opts, kj::AsyncIoContext& io) : opts_(std::move(opts)), cfg_(opts_.config), io_(io) {}
   ~Daemon() noexcept override { stop_threads(); }
@@ -140,6 +192,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     router_.detach(slot);
     const input::DeviceBinding b = router_.attach(slot, info, mapping_);
     for (const auto& w : router_.warnings()) log::warning("{}", w);
+    remember_device(slot, info, b);
     anchors_[slot % anchors_.size()] = Anchor{};
     push(input::InputMessage::attach(slot, b), "attach");
     log::info("device {}: {} [{}] on slot {}, drives {} tool(s)", info.node.empty() ? "(recorded)" : info.node,
@@ -148,6 +201,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
   void on_detach(std::uint8_t slot) override {
     router_.detach(slot);
+    if (auto it = known_devices_.find(slot); it != known_devices_.end()) {
+      it->second.connected = false;
+      it->second.node.clear();
+    }
     anchors_[slot % anchors_.size()] = Anchor{};
     push(input::InputMessage::detach(slot), "detach");
     if (haptics_) haptics_->detach(slot);
@@ -213,30 +270,11 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     for (const auto& w : scene_.warnings) log::warning("scene {}: {}", scene_.file.string(), w);
     for (const auto& m : scene_.meshes)
       for (const auto& w : m.loaded.warnings) log::warning("scene {}: mesh {}: {}", scene_.file.string(), m.name, w);
-    rate_ = cfg_.rate_hz.value_or(scene_.settings.rate_hz);
-    sim::SimSettings settings = scene_.settings;
-    settings.rate_hz = rate_;
-    tools_ = scene_.tools.size();
-    if (tools_ > input::kMaxTools)
-      throw std::runtime_error(fmt::format("scene {}: {} tools, at most {} can be driven", scene_.file.string(),
-                                           tools_, input::kMaxTools));
-    const int slots = static_cast<int>(std::max<std::size_t>(tools_, 1));
-    world_ = std::make_unique<sim::World<float>>(settings, slots);
-    std::size_t vertices = 0;
-    for (const auto& m : scene_.meshes) {
-      world_->add_body(m.loaded.mesh, scene_.material_of(m));
-      vertices += m.loaded.mesh.positions.size();
-    }
-    const auto specs = tool_specs(scene_);
-    loop::DriverLimits limits;
-    limits.bounds = loop::tool_bounds(mesh_bounds(scene_), specs, cfg_.tool_margin);
-    limits.size_step = cfg_.size_step;
-    limits.min_scale = cfg_.min_scale;
-    limits.max_scale = cfg_.max_scale;
-    board_ = std::make_unique<haptics::FeedbackBoard>(slots);
-    stages_ = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, rate_), *board_, kRingCapacity);
+    SimParts parts = build_sim(std::move(scene_), 0);
+    install(std::move(parts));
+    stages_ = std::move(pending_stages_);
     log::info("scene {}: {} meshes, {} vertices, {} tools; {} Hz", scene_.file.string(), scene_.meshes.size(),
-              vertices, tools_, rate_);
+              vertices_of(scene_), tools_, rate_);
 
     // Mapping and haptics.
     mapping_ = input::parse_mapping(cfg_.mapping_table, cfg_.file.empty() ? "config" : cfg_.file);
@@ -251,6 +289,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
             router_.detach(slot);
             auto b = router_.attach(slot, info, mapping_);
             for (const auto& w : router_.warnings()) log::warning("{}", w);
+            remember_device(slot, info, b);
             return b;
           });
       replay_->start(1);
@@ -271,17 +310,21 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
                 cfg_.input_clock == InputClock::device ? "device" : "arrival");
     }
 
+    // The streaming and control server: listening before READY=1, so a
+    // client started after the daemon is ready always finds the socket.
+    server::ServerOptions sopts;
+    sopts.name = fmt::format("sculptd {}", SCULPTD_VERSION);
+    sopts.log = [](int priority, const std::string& line) {
+      log::write(static_cast<log::Level>(std::clamp(priority, 3, 7)), line);
+    };
+    server_ = std::make_unique<server::Server>(io_, *this, sopts);
+    server_->set_scene(scene_info(scene_, rate_), *published_);
+    listen_ = std::make_unique<server::ListenSocket>(server::ListenSocket::open(client::resolve_socket_path(cfg_.socket)));
+    socket_path_ = listen_->path();
+    server_->listen(listen_->release());
+
     // The sim thread.
-    loop::SimThreadOptions so;
-    so.rate_hz = rate_;
-    so.realtime = cfg_.realtime;
-    so.realtime_priority = cfg_.realtime_priority;
-    if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
-    sim_ = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
-    const loop::RealtimeResult rt = sim_->start();
-    for (const auto& w : rt.warnings) log::warning("{}", w);
-    if (cfg_.realtime && rt.fifo) log::info("sim thread: SCHED_FIFO priority {}{}", cfg_.realtime_priority,
-                                            rt.locked ? ", memory locked" : "");
+    start_sim(0, false);
 
     // The io loop's tasks.
     tasks_ = kj::heap<kj::TaskSet>(*this);
@@ -291,8 +334,165 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     tasks_->add(housekeeping());
     started_ = std::chrono::steady_clock::now();
     notify::ready(status_line());
-    log::notice("sculptd ready: {} Hz, input {}, socket {} (served by a later release)", rate_, to_string(cfg_.input),
-                cfg_.socket);
+    log::notice("sculptd ready: {} Hz, input {}, socket {}{}", rate_, to_string(cfg_.input), socket_path_,
+                listen_->activated() ? " (socket activation)" : "");
+  }
+
+  static std::size_t vertices_of(const scene::Scene& s) {
+    std::size_t n = 0;
+    for (const auto& m : s.meshes) n += m.loaded.mesh.positions.size();
+    return n;
+  }
+
+  // Builds a scene's world, stages and published state (allocates; throws
+  // naming what is wrong). Nothing running is touched.
+  SimParts build_sim(scene::Scene scene, std::uint64_t first_tick) {
+    SimParts p;
+    p.rate = cfg_.rate_hz.value_or(scene.settings.rate_hz);
+    sim::SimSettings settings = scene.settings;
+    settings.rate_hz = p.rate;
+    p.tools = scene.tools.size();
+    if (p.tools > input::kMaxTools)
+      throw std::runtime_error(fmt::format("scene {}: {} tools, at most {} can be driven", scene.file.string(),
+                                           p.tools, input::kMaxTools));
+    const int slots = static_cast<int>(std::max<std::size_t>(p.tools, 1));
+    p.world = std::make_unique<sim::World<float>>(settings, slots);
+    for (const auto& m : scene.meshes) p.world->add_body(m.loaded.mesh, scene.material_of(m));
+    const auto specs = tool_specs(scene);
+    loop::DriverLimits limits;
+    limits.bounds = loop::tool_bounds(mesh_bounds(scene), specs, cfg_.tool_margin);
+    limits.size_step = cfg_.size_step;
+    limits.min_scale = cfg_.min_scale;
+    limits.max_scale = cfg_.max_scale;
+    if (!board_) board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
+    p.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, p.rate), *board_, kRingCapacity);
+    p.published = std::make_unique<server::PublishedState>(*p.world, p.rate, first_tick);
+    p.stages->set_published(p.published.get());
+    p.scene = std::move(scene);
+    return p;
+  }
+
+  // Takes the parts in (the sim thread must not be running); the stages wait
+  // in pending_stages_ until the caller has moved the old ring's messages.
+  void install(SimParts p) {
+    scene_ = std::move(p.scene);
+    rate_ = p.rate;
+    tools_ = p.tools;
+    world_ = std::move(p.world);
+    pending_stages_ = std::move(p.stages);
+    published_ = std::move(p.published);
+  }
+
+  void start_sim(std::uint64_t first_tick, bool paused) {
+    loop::SimThreadOptions so;
+    so.rate_hz = rate_;
+    so.realtime = cfg_.realtime;
+    so.realtime_priority = cfg_.realtime_priority;
+    so.first_tick = first_tick;
+    if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
+    sim_ = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
+    if (paused) sim_->request_pause(true);
+    const loop::RealtimeResult rt = sim_->start();
+    for (const auto& w : rt.warnings) log::warning("{}", w);
+    if (cfg_.realtime && rt.fifo) log::info("sim thread: SCHED_FIFO priority {}{}", cfg_.realtime_priority,
+                                            rt.locked ? ", memory locked" : "");
+  }
+
+  // Replaces the running simulation with `next` (a loaded scene, or the
+  // current one again for reset): the sim thread stops, the new world takes
+  // over the tick count, the queued inputs and the attached devices, viewers
+  // get a new snapshot. On an error before the stop, nothing changes.
+  std::string swap_scene(scene::Scene next, const char* what) {
+    SimParts parts;
+    try {
+      parts = build_sim(std::move(next), sim_->ticks());
+    } catch (const std::exception& e) {
+      log::warning("{}: {}; keeping the current sculpt", what, e.what());
+      return e.what();
+    }
+    const bool paused = sim_->paused();
+    sim_->stop();
+    const std::uint64_t tick = sim_->ticks();
+    sim_.reset();
+    // The new published state continues from the tick the old one reached.
+    parts.published = std::make_unique<server::PublishedState>(*parts.world, parts.rate, tick);
+    parts.stages->set_published(parts.published.get());
+    std::unique_ptr<SculptStages> old = std::move(stages_);
+    std::unique_ptr<server::PublishedState> old_published = std::move(published_);
+    install(std::move(parts));
+    stages_ = std::move(pending_stages_);
+    // Devices first (as attach messages due now), then what was queued.
+    router_.set_routes(tool_routes(scene_));
+    if (devices_) {
+      for (const auto& [slot, info] : devices_->devices()) on_attach(slot, info);
+    } else {
+      for (std::uint8_t slot = 0; slot < input::kMaxDevices; ++slot)
+        if (old->mapper().attached(slot)) push(input::InputMessage::attach(slot, old->mapper().binding(slot)), "attach");
+    }
+    while (auto m = old->ring().try_pop()) push(*m, "queued");
+    server_->set_scene(scene_info(scene_, rate_), *published_);
+    old.reset();
+    old_published.reset();
+    start_sim(tick, paused);
+    log::notice("{}: scene {} ({} meshes, {} vertices) from tick {}", what, scene_.file.string(), scene_.meshes.size(),
+                vertices_of(scene_), tick);
+    return {};
+  }
+
+  void remember_device(std::uint8_t slot, const input::DeviceInfo& info, const input::DeviceBinding& b) {
+    server::DeviceEntry d;
+    d.slot = slot;
+    d.name = info.name;
+    d.node = info.node;
+    d.vendor = info.vendor;
+    d.product = info.product;
+    d.kind = std::string(input::to_string(info.kind));
+    d.connected = true;
+    d.ff = info.has_ff(FF_CONSTANT) ? 2 : info.has_ff(FF_RUMBLE) ? 1 : 0;
+    for (std::uint32_t t = 0; t < input::kMaxTools; ++t)
+      if (b.drives(t)) d.tools.push_back(t);
+    known_devices_[slot] = std::move(d);
+  }
+
+  // --- server::Control (io thread) -------------------------------------------
+  server::DaemonStatus status() override {
+    server::DaemonStatus d;
+    d.stats = loop::snapshot(sim_->stats(), rate_);
+    d.stats.devices = device_count();
+    d.stats.ff_uploads = haptics_ ? haptics_->stats().ff.uploads.load() : 0;
+    d.paused = sim_->paused();
+    d.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+    d.scene = scene_.file.string();
+    d.sim_time_ns = static_cast<std::uint64_t>(std::llround(static_cast<double>(sim_->ticks()) * 1e9 / rate_));
+    return d;
+  }
+  std::vector<server::DeviceEntry> devices() override {
+    std::vector<server::DeviceEntry> out;
+    for (const auto& [slot, d] : known_devices_) out.push_back(d);
+    return out;
+  }
+  std::string load_scene(const std::string& path) override {
+    if (path != "builtin:default" && !std::filesystem::path(path).is_absolute())
+      return "scene path must be absolute (the daemon's working directory is not yours): " + path;
+    scene::Scene next;
+    try {
+      next = scene::load_scene(path);
+    } catch (const std::exception& e) {
+      log::warning("load scene: {}; keeping the current sculpt", e.what());
+      return e.what();
+    }
+    for (const auto& w : next.warnings) log::warning("scene {}: {}", next.file.string(), w);
+    return swap_scene(std::move(next), "load scene");
+  }
+  std::string reset() override {
+    // The scene as loaded, again (meshes keep their loaded shapes in it).
+    scene::Scene again = scene_;
+    return swap_scene(std::move(again), "reset");
+  }
+  std::string set_paused(bool paused) override {
+    if (!sim_->request_pause(paused)) return "the sim thread's command ring is full; try again";
+    log::info("{}", paused ? "paused" : "resumed");
+    return {};
   }
 
   std::uint64_t replay_horizon() const {
@@ -366,7 +566,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     if (watchdog_ && now >= next_watchdog_) {
       // Only a ticking sim thread keeps the service alive: a stuck one gets
       // the process restarted (Restart=on-failure) after WatchdogSec.
-      const std::uint64_t t = sim_->ticks();
+      // Heartbeats, not ticks: a paused loop is alive.
+      const std::uint64_t t = sim_->stats().heartbeats.load(std::memory_order_acquire);
       if (t != watchdog_ticks_) {
         notify::watchdog();
         watchdog_ticks_ = t;
@@ -436,6 +637,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
 
   void stop_threads() {
+    if (server_) server_->close();  // no client reads the published state any more
     if (sim_) sim_->stop();
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
   }
@@ -452,6 +654,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     loop::StatsSnapshot s = loop::snapshot(sim_->stats(), rate_);
     s.devices = devices;
     s.ff_uploads = haptics_->stats().ff.uploads.load();
+    s.viewers = server_ ? server_->viewers() : 0;
+    s.bytes_sent = server_ ? server_->counters().bytes_sent : 0;
     const std::uint64_t hash = world_->hash();
     log::info("stopped after {} ticks: {} overruns, jitter p50 {:.1f} us p99 {:.1f} us max {:.1f} us, "
               "{} FF uploads ({} errors), final mesh hash {:016x}",
@@ -486,7 +690,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<haptics::HapticsThread> haptics_;
   std::unique_ptr<input::ReplaySource> replay_;
   std::unique_ptr<input::DeviceManager> devices_;
+  std::unique_ptr<server::PublishedState> published_;
+  std::unique_ptr<SculptStages> pending_stages_;   // install() → setup()/swap, briefly
+  std::map<std::uint8_t, server::DeviceEntry> known_devices_;
   std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
+  std::unique_ptr<server::Server> server_;
+  std::unique_ptr<server::ListenSocket> listen_;
+  std::string socket_path_;
   int epoll_ = -1;
   std::vector<int> registered_;
   bool fds_changed_ = false;

@@ -16,9 +16,11 @@ void SculptStages::input(std::uint64_t tick, std::span<sim::Tool> tools) {
   const std::size_t n = mapper_.drain(ring_, tick);
   if (n) applied_.store(applied_.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
   driver_.update_from(mapper_.controls(), tools);
+  tools_ = tools;
 }
 
-void SculptStages::publish(std::uint64_t, const sim::World<float>& world) {
+void SculptStages::publish(std::uint64_t tick, const sim::World<float>& world) {
+  if (published_) published_->publish(tick, world, tools_, loop::monotonic_ns());
   const auto feedback = world.feedback();
   for (std::size_t t = 0; t < driver_.size() && t < feedback.size(); ++t) {
     if (driver_.tool(t).active) board_.publish(static_cast<int>(t), feedback[t]);

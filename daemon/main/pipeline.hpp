@@ -14,6 +14,7 @@
 #include "input/input_message.hpp"
 #include "loop/sim_thread.hpp"
 #include "loop/tool_driver.hpp"
+#include "server/published_state.hpp"
 
 namespace sculpt::daemon {
 
@@ -31,6 +32,13 @@ class SculptStages final : public loop::TickStages {
   void publish(std::uint64_t tick, const sim::World<float>& world) override;
 
   const loop::ToolDriver& driver() const { return driver_; }
+  // Which devices are attached, with their bindings (read while the sim
+  // thread is stopped: a scene swap carries them over).
+  const input::ControlMapper& mapper() const { return mapper_; }
+
+  // Where the publish stage hands the tick's positions and tools to the
+  // streaming server (nullptr: nowhere). Set before the sim thread starts.
+  void set_published(server::PublishedState* state) { published_ = state; }
 
  private:
   loop::ToolDriver driver_;
@@ -38,6 +46,8 @@ class SculptStages final : public loop::TickStages {
   concurrency::SpscRing<input::InputMessage> ring_;
   input::ControlMapper mapper_;
   std::atomic<std::uint64_t> applied_{0};
+  server::PublishedState* published_ = nullptr;
+  std::span<const sim::Tool> tools_;  // the sim thread's, seen in input()
 };
 
 }  // namespace sculpt::daemon

@@ -1,0 +1,172 @@
+#include "server/encode.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string_view>
+
+namespace sculpt::server {
+namespace {
+
+void set_vec(proto::Vec3::Builder v, const std::array<float, 3>& a) {
+  v.setX(a[0]);
+  v.setY(a[1]);
+  v.setZ(a[2]);
+}
+
+void set_quantiles(proto::Quantiles::Builder q, const loop::Percentiles& p) {
+  q.setP50(static_cast<float>(p.p50));
+  q.setP99(static_cast<float>(p.p99));
+  q.setMax(static_cast<float>(p.max));
+}
+
+loop::Percentiles percentiles(proto::Quantiles::Reader q) { return {q.getP50(), q.getP99(), q.getMax()}; }
+
+}  // namespace
+
+void set_bounds(proto::Aabb::Builder out, const std::array<float, 6>& b) {
+  set_vec(out.initMin(), {b[0], b[1], b[2]});
+  set_vec(out.initMax(), {b[3], b[4], b[5]});
+}
+
+void fill_snapshot(proto::Snapshot::Builder out, const SceneInfo& scene, const PublishedReader& reader) {
+  const PublishedHeader& h = reader.header();
+  out.setSequence(h.tick);
+  out.setSimTimeNs(static_cast<std::uint64_t>(std::llround(static_cast<double>(h.tick) * 1e9 / scene.rate_hz)));
+  out.setScene(scene.scene);
+  out.setRateHz(static_cast<float>(scene.rate_hz));
+  const std::size_t n = std::min(scene.meshes.size(), reader.body_count());
+  auto meshes = out.initMeshes(static_cast<unsigned>(n));
+  std::array<float, 6> all{};
+  for (std::size_t i = 0; i < n; ++i) {
+    const MeshInfo& info = scene.meshes[i];
+    auto m = meshes[static_cast<unsigned>(i)];
+    m.setId(static_cast<std::uint32_t>(i));
+    m.setName(info.name);
+    auto tris = m.initTriangles(static_cast<unsigned>(info.triangles.size()));
+    for (std::size_t k = 0; k < info.triangles.size(); ++k) tris.set(static_cast<unsigned>(k), info.triangles[k]);
+    const auto pos = reader.positions(i);
+    auto rest = m.initRestPositions(info.rest.size() * 4);
+    if (!info.rest.empty()) std::memcpy(rest.begin(), info.rest.data(), info.rest.size() * 4);
+    auto cur = m.initPositions(pos.size() * 4);
+    if (!pos.empty()) std::memcpy(cur.begin(), pos.data(), pos.size() * 4);
+    auto mat = m.initMaterial();
+    mat.setName(info.material);
+    mat.setModel(info.linear_model ? proto::ForceModel::LINEAR : proto::ForceModel::SPRING);
+    mat.setMass(info.mass);
+    mat.setStiffness(info.stiffness);
+    mat.setDamping(info.damping);
+    mat.setAnchor(info.anchor);
+    mat.setPlastic(info.plastic);
+    mat.setYieldStrain(info.yield_strain);
+    mat.setGravity(info.gravity);
+    const auto& b = reader.bounds(i);
+    set_bounds(m.initBounds(), b);
+    m.setSleeping(h.awake_vertices == 0);
+    for (int a = 0; a < 3; ++a) {
+      all[a] = i == 0 ? b[a] : std::min(all[a], b[a]);
+      all[3 + a] = i == 0 ? b[3 + a] : std::max(all[3 + a], b[3 + a]);
+    }
+  }
+  set_bounds(out.initSceneBounds(), all);
+  fill_tools(out.initTools(static_cast<unsigned>(std::min<std::size_t>(h.tool_count, scene.tools.size()))), scene, h);
+}
+
+void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, const PublishedHeader& h) {
+  for (unsigned t = 0; t < out.size(); ++t) {
+    const PublishedTool& p = h.tools[t];
+    const ToolInfo& info = scene.tools[t];
+    auto o = out[t];
+    o.setId(t);
+    const bool capsule = p.shape == 1;
+    o.setShape(capsule ? proto::ToolShape::CAPSULE : proto::ToolShape::SPHERE);
+    o.setRadius(p.radius);
+    const auto& ax = p.half_axis;
+    const float len = std::sqrt(ax[0] * ax[0] + ax[1] * ax[1] + ax[2] * ax[2]);
+    o.setHalfLength(capsule ? len : 0.0f);
+    set_vec(o.initPosition(), p.position);
+    // The rotation that takes +x onto the capsule's axis.
+    auto q = o.initOrientation();
+    if (capsule && len > 0) {
+      const float vx = ax[0] / len, vy = ax[1] / len, vz = ax[2] / len;
+      float w = 1 + vx, x = 0, y = -vz, z = vy;
+      if (w < 1e-6f) w = 0, x = 0, y = 0, z = 1;  // opposite: half a turn about z
+      const float norm = std::sqrt(w * w + x * x + y * y + z * z);
+      q.setW(w / norm);
+      q.setX(x / norm);
+      q.setY(y / norm);
+      q.setZ(z / norm);
+    } else {
+      q.setW(1);
+    }
+    set_vec(o.initVelocity(), p.velocity);
+    o.setGrabbing(p.grab && p.active);
+    set_vec(o.initContactForce(), p.force);
+    o.setContacts(p.contacts);
+    o.setDeviceSlot(info.device_slot);
+  }
+}
+
+void fill_stats(proto::Stats::Builder out, const DaemonStatus& d) {
+  const loop::StatsSnapshot& s = d.stats;
+  out.setRateHz(static_cast<float>(s.rate_hz));
+  out.setTicks(s.ticks);
+  out.setOverruns(s.overruns);
+  set_quantiles(out.initJitterUs(), s.jitter_us);
+  auto stages = out.initStageUs(static_cast<unsigned>(s.stage_us.size()));
+  for (unsigned i = 0; i < stages.size(); ++i) {
+    stages[i].setStage(loop::stage_name(static_cast<loop::Stage>(i)));
+    set_quantiles(stages[i].initUs(), s.stage_us[i]);
+  }
+  out.setVerticesTotal(s.vertices_total);
+  out.setVerticesAwake(s.vertices_awake);
+  out.setViewers(static_cast<std::uint32_t>(s.viewers));
+  out.setDevices(static_cast<std::uint32_t>(s.devices));
+  out.setFfUploads(s.ff_uploads);
+  out.setBytesSent(s.bytes_sent);
+  out.setBlowups(s.blowups);
+  out.setPaused(d.paused);
+  out.setUptimeS(d.uptime_s);
+  out.setScene(d.scene);
+  out.setSimTimeNs(d.sim_time_ns);
+}
+
+void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const DeviceEntry> devices) {
+  for (unsigned i = 0; i < out.size() && i < devices.size(); ++i) {
+    const DeviceEntry& d = devices[i];
+    auto o = out[i];
+    o.setSlot(d.slot);
+    o.setName(d.name);
+    o.setNode(d.node);
+    o.setVendor(d.vendor);
+    o.setProduct(d.product);
+    o.setKind(d.kind);
+    o.setConnected(d.connected);
+    o.setFf(d.ff == 2 ? proto::FfSupport::CONSTANT : d.ff == 1 ? proto::FfSupport::RUMBLE : proto::FfSupport::NONE);
+    auto tools = o.initTools(static_cast<unsigned>(d.tools.size()));
+    for (unsigned t = 0; t < tools.size(); ++t) tools.set(t, d.tools[t]);
+    o.setFfUploads(d.ff_uploads);
+  }
+}
+
+loop::StatsSnapshot stats_from(proto::Stats::Reader in) {
+  loop::StatsSnapshot s;
+  s.rate_hz = in.getRateHz();
+  s.ticks = in.getTicks();
+  s.overruns = in.getOverruns();
+  s.jitter_us = percentiles(in.getJitterUs());
+  for (const auto st : in.getStageUs())
+    for (int i = 0; i < static_cast<int>(loop::Stage::count); ++i)
+      if (std::string_view(st.getStage().cStr()) == loop::stage_name(static_cast<loop::Stage>(i)))
+        s.stage_us[static_cast<std::size_t>(i)] = percentiles(st.getUs());
+  s.vertices_total = in.getVerticesTotal();
+  s.vertices_awake = in.getVerticesAwake();
+  s.viewers = in.getViewers();
+  s.devices = in.getDevices();
+  s.ff_uploads = in.getFfUploads();
+  s.bytes_sent = in.getBytesSent();
+  s.blowups = in.getBlowups();
+  return s;
+}
+
+}  // namespace sculpt::server

@@ -1,0 +1,468 @@
+#include "server/server.hpp"
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+
+#include <capnp/rpc.h>
+#include <fmt/format.h>
+
+#include "server/encode.hpp"
+
+namespace sculpt::server {
+namespace {
+
+std::int64_t now_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+bool same_tools(const PublishedHeader& a, const PublishedHeader& b) {
+  if (a.tool_count != b.tool_count) return false;
+  return std::memcmp(a.tools.data(), b.tools.data(), sizeof(PublishedTool) * a.tool_count) == 0;
+}
+
+}  // namespace
+
+float clamp_fps(float fps, float fallback) {
+  if (!std::isfinite(fps) || fps <= 0) return fallback;
+  return std::clamp(fps, 0.1f, 1000.0f);
+}
+
+// One viewer's stream: its own baseline (what it has: the positions it was
+// last sent, per vertex), rate and tolerance. Bounded: one copy of the
+// positions, one call in flight.
+struct Server::Stream {
+  std::uint64_t id = 0, client = 0;
+  proto::Viewer::Client viewer;
+  float tolerance = 0;
+  float fps = 60;
+  std::vector<std::vector<float>> baseline;   // per body, file order
+  std::uint64_t evaluated = 0;                // reader serial its baseline was compared at
+  PublishedHeader sent_header{};              // tools as last sent
+  std::uint64_t sequence = 0;                 // of the last frame or snapshot sent
+  std::int64_t last_send_ns = 0, last_stats_ns = 0;
+  bool needs_snapshot = true;
+  bool in_flight = false;
+  bool dead = false;
+  kj::Promise<void> pending = nullptr;
+
+  explicit Stream(proto::Viewer::Client v) : viewer(kj::mv(v)) {}
+};
+
+class SubscriptionImpl final : public proto::Subscription::Server {
+ public:
+  SubscriptionImpl(server::Server& server, std::uint64_t id) : server_(server), id_(id) {}
+  ~SubscriptionImpl() noexcept(false) { server_.remove_stream(id_); }
+
+  kj::Promise<void> setRate(SetRateContext context) override {
+    server_.set_rate(id_, context.getParams().getMaxFps());
+    return kj::READY_NOW;
+  }
+  kj::Promise<void> setTolerance(SetToleranceContext context) override {
+    server_.set_tolerance(id_, context.getParams().getToleranceM());
+    return kj::READY_NOW;
+  }
+
+ private:
+  server::Server& server_;
+  std::uint64_t id_;
+};
+
+class SessionImpl final : public proto::Session::Server {
+ public:
+  SessionImpl(server::Server& server, std::uint64_t client) : server_(server), client_(client) {}
+
+  kj::Promise<void> status(StatusContext context) override {
+    server_.fill_status(context.getResults().initStats());
+    return kj::READY_NOW;
+  }
+  kj::Promise<void> devices(DevicesContext context) override {
+    const auto list = server_.control().devices();
+    fill_devices(context.getResults().initDevices(static_cast<unsigned>(list.size())), list);
+    return kj::READY_NOW;
+  }
+  kj::Promise<void> snapshot(SnapshotContext context) override {
+    server_.fill_snapshot_now(context.getResults().initSnapshot());
+    return kj::READY_NOW;
+  }
+  kj::Promise<void> subscribe(SubscribeContext context) override {
+    auto p = context.getParams();
+    const std::uint64_t id = server_.add_stream(p.getViewer(), p.getToleranceM(), p.getMaxFps(), client_);
+    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(server_, id));
+    return kj::READY_NOW;
+  }
+  kj::Promise<void> loadScene(LoadSceneContext context) override {
+    const std::string path = context.getParams().getPath();
+    return result(context.getResults().initResult(), server_.control().load_scene(path));
+  }
+  kj::Promise<void> reset(ResetContext context) override {
+    return result(context.getResults().initResult(), server_.control().reset());
+  }
+  kj::Promise<void> pause(PauseContext context) override {
+    return result(context.getResults().initResult(), server_.control().set_paused(true));
+  }
+  kj::Promise<void> resume(ResumeContext context) override {
+    return result(context.getResults().initResult(), server_.control().set_paused(false));
+  }
+
+ private:
+  static kj::Promise<void> result(proto::Result::Builder r, const std::string& error) {
+    r.setOk(error.empty());
+    r.setError(error);
+    return kj::READY_NOW;
+  }
+  server::Server& server_;
+  std::uint64_t client_;
+};
+
+class SculptdImpl final : public proto::Sculptd::Server {
+ public:
+  SculptdImpl(server::Server& server, std::uint64_t client, std::string peer)
+      : server_(server), client_(client), peer_(std::move(peer)) {}
+
+  kj::Promise<void> hello(HelloContext context) override {
+    auto p = context.getParams();
+    auto r = context.getResults();
+    r.setMajor(proto::PROTOCOL_MAJOR);
+    r.setMinor(proto::PROTOCOL_MINOR);
+    r.setServer(server_.options().name);
+    const std::string who = p.getClient();
+    if (p.getMajor() != proto::PROTOCOL_MAJOR) {
+      const std::string reason = fmt::format("this daemon speaks protocol {}.{}, the client {}.{}; no major but {} "
+                                             "is understood",
+                                             proto::PROTOCOL_MAJOR, proto::PROTOCOL_MINOR, p.getMajor(),
+                                             p.getMinor(), proto::PROTOCOL_MAJOR);
+      r.setAccepted(false);
+      r.setReason(reason);
+      if (server_.options().log)
+        server_.options().log(5, fmt::format("client {} ({}, \"{}\") refused: {}", client_, peer_, who, reason));
+      return kj::READY_NOW;
+    }
+    r.setAccepted(true);
+    r.setSession(kj::heap<SessionImpl>(server_, client_));
+    if (server_.options().log)
+      server_.options().log(7, fmt::format("client {} ({}) is \"{}\", protocol {}.{}", client_, peer_, who,
+                                           p.getMajor(), p.getMinor()));
+    return kj::READY_NOW;
+  }
+
+ private:
+  server::Server& server_;
+  std::uint64_t client_;
+  std::string peer_;
+};
+
+struct Server::Client {
+  std::uint64_t id = 0;
+  std::string peer;
+  kj::Own<kj::AsyncIoStream> stream;
+  kj::Own<capnp::TwoPartyVatNetwork> network;
+  kj::Own<capnp::RpcSystem<capnp::rpc::twoparty::VatId>> rpc;
+};
+
+void Server::Errors::taskFailed(kj::Exception&& e) {
+  // The loops handle their own errors; this is only reached on a bug.
+  KJ_LOG(ERROR, "sculptd server task failed", e);
+}
+
+Server::Server(kj::AsyncIoContext& io, Control& control, ServerOptions options)
+    : io_(io), control_(control), options_(std::move(options)), tasks_(kj::heap<kj::TaskSet>(errors_)) {
+  tasks_->add(pump_loop());
+}
+
+Server::~Server() { close(); }
+
+void Server::close() {
+  if (closed_) return;
+  closed_ = true;
+  tasks_ = nullptr;
+  streams_.clear();
+  clients_.clear();
+  listen_observer_ = nullptr;
+  if (listen_fd_ >= 0) ::close(listen_fd_);
+  listen_fd_ = -1;
+  reader_.reset();
+}
+
+void Server::set_scene(SceneInfo info, const PublishedState& state) {
+  scene_ = std::move(info);
+  reader_ = std::make_unique<PublishedReader>(state);
+  scratch_.assign(reader_->body_count(), {});
+  for (auto& [id, s] : streams_) s->needs_snapshot = true;
+}
+
+void Server::listen(int fd) {
+  listen_fd_ = fd;
+  const int flags = ::fcntl(fd, F_GETFL, 0);
+  ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+  listen_observer_ =
+      kj::heap<kj::UnixEventPort::FdObserver>(io_.unixEventPort, fd, kj::UnixEventPort::FdObserver::OBSERVE_READ);
+  tasks_->add(accept_loop());
+}
+
+kj::Promise<void> Server::accept_loop() {
+  for (;;) {
+    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+    if (fd < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK && options_.log)
+        options_.log(4, fmt::format("accept: {}", std::strerror(errno)));
+      break;
+    }
+    ucred cred{};
+    socklen_t len = sizeof cred;
+    std::string peer = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0
+                           ? fmt::format("pid {} uid {} gid {}", cred.pid, cred.uid, cred.gid)
+                           : std::string("peer unknown");
+    if (clients_.size() >= options_.max_clients) {
+      ::close(fd);
+      ++counters_.refused;
+      const std::int64_t now = now_ns();
+      if (options_.log && now - refused_logged_ns_ > 1'000'000'000) {
+        options_.log(4, fmt::format("refusing a client ({}): {} clients already connected ({} refused so far)", peer,
+                                    clients_.size(), counters_.refused));
+        refused_logged_ns_ = now;
+      }
+      continue;
+    }
+    serve(io_.lowLevelProvider->wrapSocketFd(fd, kj::LowLevelAsyncIoProvider::TAKE_OWNERSHIP), kj::mv(peer));
+  }
+  return listen_observer_->whenBecomesReadable().then([this] { return accept_loop(); });
+}
+
+void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
+  auto c = std::make_unique<Client>();
+  c->id = next_client_++;
+  c->peer = std::move(peer);
+  c->stream = kj::mv(stream);
+  capnp::ReaderOptions limits;
+  limits.traversalLimitInWords = options_.traversal_limit_words;
+  limits.nestingLimit = options_.nesting_limit;
+  c->network = kj::heap<capnp::TwoPartyVatNetwork>(*c->stream, capnp::rpc::twoparty::Side::SERVER, limits);
+  c->rpc = kj::heap<capnp::RpcSystem<capnp::rpc::twoparty::VatId>>(
+      capnp::makeRpcServer(*c->network, kj::heap<SculptdImpl>(*this, c->id, c->peer)));
+  ++counters_.connections;
+  if (options_.log) options_.log(6, fmt::format("client {} connected ({})", c->id, c->peer));
+  const std::uint64_t id = c->id;
+  auto done = c->network->onDisconnect();
+  clients_.emplace(id, std::move(c));
+  tasks_->add(done.then(
+      [this, id] {
+        auto it = clients_.find(id);
+        if (it == clients_.end()) return;
+        if (options_.log) options_.log(6, fmt::format("client {} disconnected ({})", id, it->second->peer));
+        ++counters_.disconnected;
+        for (auto& [sid, s] : streams_)
+          if (s->client == id) s->dead = true;
+        clients_.erase(it);
+      },
+      [this, id](kj::Exception&& e) {
+        if (options_.log) options_.log(4, fmt::format("client {} dropped: {}", id, e.getDescription().cStr()));
+        ++counters_.disconnected;
+        clients_.erase(id);
+      }));
+}
+
+std::uint64_t Server::add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client) {
+  auto s = std::make_unique<Stream>(kj::mv(viewer));
+  s->id = next_stream_++;
+  s->client = client;
+  s->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+  s->fps = clamp_fps(fps, options_.default_fps);
+  const std::uint64_t id = s->id;
+  if (options_.log)
+    options_.log(6, fmt::format("client {}: viewer {} subscribed (tolerance {} m, {} fps)", client, id, s->tolerance,
+                                s->fps));
+  streams_.emplace(id, std::move(s));
+  return id;
+}
+
+void Server::remove_stream(std::uint64_t id) {
+  auto it = streams_.find(id);
+  if (it == streams_.end()) return;
+  // Not from inside its own pending promise: that only marks it dead.
+  it->second->dead = true;
+}
+
+void Server::set_rate(std::uint64_t id, float fps) {
+  if (auto it = streams_.find(id); it != streams_.end()) it->second->fps = clamp_fps(fps, options_.default_fps);
+}
+
+void Server::set_tolerance(std::uint64_t id, float tolerance) {
+  if (auto it = streams_.find(id); it != streams_.end())
+    it->second->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+}
+
+void Server::fill_status(proto::Stats::Builder out) {
+  DaemonStatus d = control_.status();
+  d.stats.viewers = streams_.size();
+  d.stats.bytes_sent = counters_.bytes_sent;
+  server::fill_stats(out, d);
+}
+
+void Server::fill_snapshot_now(proto::Snapshot::Builder out) {
+  if (!reader_) return;
+  reader_->sync();
+  server::fill_snapshot(out, scene_, *reader_);
+}
+
+kj::Promise<void> Server::pump_loop() {
+  return io_.provider->getTimer().afterDelay(options_.pump_period).then([this] {
+    pump();
+    return pump_loop();
+  });
+}
+
+void Server::pump() {
+  // Ended streams go first (never from inside their own promise).
+  for (auto it = streams_.begin(); it != streams_.end();) {
+    if (it->second->dead) {
+      if (options_.log) options_.log(7, fmt::format("viewer {} ended", it->first));
+      it = streams_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (streams_.empty() || !reader_) return;
+  reader_->sync();
+  const std::int64_t now = now_ns();
+  for (auto& [id, s] : streams_) {
+    if (s->in_flight || s->dead) continue;
+    if (s->needs_snapshot) {
+      send_snapshot(*s);
+      continue;
+    }
+    const auto period = static_cast<std::int64_t>(1e9 / s->fps);
+    if (now - s->last_send_ns < period) continue;
+    send_frame(*s, now);
+  }
+}
+
+void Server::send_snapshot(Stream& s) {
+  auto req = s.viewer.snapshotRequest();
+  auto snap = req.initSnapshot();
+  server::fill_snapshot(snap, scene_, *reader_);
+  s.baseline.resize(reader_->body_count());
+  for (std::size_t b = 0; b < reader_->body_count(); ++b) {
+    const auto p = reader_->positions(b);
+    s.baseline[b].assign(p.begin(), p.end());
+  }
+  s.evaluated = reader_->serial();
+  s.sent_header = reader_->header();
+  s.sequence = reader_->header().tick;
+  s.needs_snapshot = false;
+  s.in_flight = true;
+  s.last_send_ns = now_ns();
+  counters_.bytes_sent += req.totalSize().wordCount * 8;
+  ++counters_.snapshots;
+  const std::uint64_t id = s.id;
+  s.pending = req.send()
+                  .then([this, id] {
+                    if (auto it = streams_.find(id); it != streams_.end()) it->second->in_flight = false;
+                  },
+                        [this, id](kj::Exception&& e) {
+                          if (auto it = streams_.find(id); it != streams_.end()) {
+                            it->second->dead = true;
+                            if (options_.log)
+                              options_.log(6, fmt::format("viewer {}: {}", id, e.getDescription().cStr()));
+                          }
+                        })
+                  .eagerlyEvaluate(nullptr);
+}
+
+bool Server::send_frame(Stream& s, std::int64_t now) {
+  const PublishedReader& r = *reader_;
+  const PublishedHeader& h = r.header();
+  const float tol2 = s.tolerance * s.tolerance;
+  std::size_t changed_meshes = 0;
+  for (std::size_t b = 0; b < r.body_count(); ++b) {
+    auto& idx = scratch_[b];
+    idx.clear();
+    const auto pos = r.positions(b);
+    auto& base = s.baseline[b];
+    for (std::uint32_t k = 0; k < r.blocks(b); ++k) {
+      if (r.block_serial(b, k) <= s.evaluated) continue;
+      for (const std::uint32_t o : r.block_vertices(b, k)) {
+        const float* p = &pos[std::size_t{o} * 3];
+        float* q = &base[std::size_t{o} * 3];
+        const float dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+        const float d2 = dx * dx + dy * dy + dz * dz;
+        if (d2 > tol2 || (tol2 == 0 && (p[0] != q[0] || p[1] != q[1] || p[2] != q[2]))) idx.push_back(o);
+      }
+    }
+    if (!idx.empty()) {
+      std::sort(idx.begin(), idx.end());
+      ++changed_meshes;
+    }
+  }
+  s.evaluated = r.serial();
+  const bool tools_moved = !same_tools(h, s.sent_header);
+  const bool keepalive = now - s.last_send_ns >= options_.keepalive_ns;
+  if (changed_meshes == 0 && !tools_moved && !keepalive) return false;
+
+  auto req = s.viewer.frameRequest();
+  auto f = req.initFrame();
+  f.setSequence(std::max(h.tick, s.sequence));
+  f.setSimTimeNs(static_cast<std::uint64_t>(std::llround(static_cast<double>(h.tick) * 1e9 / scene_.rate_hz)));
+  f.setPublishedNs(h.published_ns);
+  auto meshes = f.initMeshes(static_cast<unsigned>(changed_meshes));
+  unsigned m = 0;
+  for (std::size_t b = 0; b < r.body_count(); ++b) {
+    const auto& idx = scratch_[b];
+    if (idx.empty()) continue;
+    auto md = meshes[m++];
+    md.setMeshId(static_cast<std::uint32_t>(b));
+    auto list = md.initIndices(static_cast<unsigned>(idx.size()));
+    auto bytes = md.initPositions(idx.size() * 12);
+    const auto pos = r.positions(b);
+    auto& base = s.baseline[b];
+    auto* out = reinterpret_cast<float*>(bytes.begin());
+    for (std::size_t k = 0; k < idx.size(); ++k) {
+      const std::uint32_t o = idx[k];
+      list.set(static_cast<unsigned>(k), o);
+      std::memcpy(out + k * 3, &pos[std::size_t{o} * 3], 12);
+      std::memcpy(&base[std::size_t{o} * 3], &pos[std::size_t{o} * 3], 12);
+    }
+    set_bounds(md.initBounds(), r.bounds(b));
+  }
+  fill_tools(f.initTools(static_cast<unsigned>(std::min<std::size_t>(h.tool_count, scene_.tools.size()))), scene_, h);
+  if (now - s.last_stats_ns >= options_.stats_every_ns) {
+    DaemonStatus d = control_.status();
+    d.stats.viewers = streams_.size();
+    d.stats.bytes_sent = counters_.bytes_sent;
+    server::fill_stats(f.initStats(), d);
+    f.setHasStats(true);
+    s.last_stats_ns = now;
+  }
+  s.sent_header = h;
+  s.sequence = f.getSequence();
+  s.last_send_ns = now;
+  s.in_flight = true;
+  counters_.bytes_sent += req.totalSize().wordCount * 8;
+  ++counters_.frames;
+  if (changed_meshes == 0 && !tools_moved) ++counters_.keepalives;
+  const std::uint64_t id = s.id;
+  s.pending = req.send()
+                  .then([this, id] {
+                    if (auto it = streams_.find(id); it != streams_.end()) it->second->in_flight = false;
+                  },
+                        [this, id](kj::Exception&& e) {
+                          if (auto it = streams_.find(id); it != streams_.end()) {
+                            it->second->dead = true;
+                            if (options_.log)
+                              options_.log(6, fmt::format("viewer {}: {}", id, e.getDescription().cStr()));
+                          }
+                        })
+                  .eagerlyEvaluate(nullptr);
+  return true;
+}
+
+}  // namespace sculpt::server

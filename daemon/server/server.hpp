@@ -1,0 +1,125 @@
+// The streaming and control server, on the io thread's kj event loop: one
+// Cap'n Proto two-party RPC connection per client (unpacked), bootstrap
+// `Sculptd` (hello → Session). Viewers subscribe; a pump on the io loop
+// reads the sim thread's PublishedState and sends each viewer what moved
+// beyond ITS tolerance since what IT last received, at most its maxFps, one
+// stream call at a time (a viewer still taking the previous frame gets none:
+// the next one is computed from the latest state when it is ready).
+//
+//   server::Server srv(io, control);              // control: the daemon
+//   srv.set_scene(info, published);               // at start and after every scene swap
+//   srv.listen(ListenSocket::open(path).release());
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <capnp/rpc-twoparty.h>
+#include <kj/async-io.h>
+#include <kj/async-unix.h>
+
+#include "sculpt.capnp.h"
+#include "server/control.hpp"
+#include "server/published_state.hpp"
+
+namespace sculpt::server {
+
+struct ServerOptions {
+  std::string name = "sculptd";
+  std::size_t max_clients = 256;             // more are refused (closed at once)
+  kj::Duration pump_period = 2 * kj::MILLISECONDS;
+  std::int64_t keepalive_ns = 1'000'000'000; // an idle viewer gets an empty frame this often
+  std::int64_t stats_every_ns = 1'000'000'000;
+  float default_fps = 60;
+  // Limits on every incoming message: a client cannot make the daemon
+  // allocate or recurse much (requests are small).
+  std::uint64_t traversal_limit_words = 64 * 1024;   // 512 KiB
+  int nesting_limit = 16;
+  // Where the server's log lines go (syslog priority: 3 error … 7 debug).
+  std::function<void(int priority, const std::string& line)> log;
+};
+
+struct ServerCounters {
+  std::uint64_t connections = 0;       // accepted so far
+  std::uint64_t refused = 0;           // over max_clients
+  std::uint64_t disconnected = 0;
+  std::uint64_t frames = 0;            // delta frames sent (keep-alives included)
+  std::uint64_t keepalives = 0;
+  std::uint64_t snapshots = 0;
+  std::uint64_t bytes_sent = 0;        // stream payloads (snapshots and frames)
+};
+
+class Server {
+ public:
+  Server(kj::AsyncIoContext& io, Control& control, ServerOptions options = {});
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  // The scene being streamed; every viewer gets a new snapshot. `state`
+  // must stay alive until the next set_scene (or the server's end).
+  void set_scene(SceneInfo info, const PublishedState& state);
+  // Accepts clients on a listening socket (takes ownership of the fd).
+  void listen(int fd);
+  // Serves one connected stream (the listener's accepts; tests; the fuzzer).
+  void serve(kj::Own<kj::AsyncIoStream> stream, std::string peer);
+
+  // Reads the latest published state and sends what is due (the pump timer
+  // calls it; tests may too).
+  void pump();
+  // Stops the pump and drops every client (before the published state goes away).
+  void close();
+
+  std::size_t clients() const { return clients_.size(); }
+  std::size_t viewers() const { return streams_.size(); }
+  const ServerCounters& counters() const { return counters_; }
+
+  // For the Session implementation (server.cpp).
+  struct Stream;
+  struct Client;
+  Control& control() { return control_; }
+  void fill_status(proto::Stats::Builder out);
+  void fill_snapshot_now(proto::Snapshot::Builder out);
+  std::uint64_t add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client);
+  void remove_stream(std::uint64_t id);
+  void set_rate(std::uint64_t id, float fps);
+  void set_tolerance(std::uint64_t id, float tolerance);
+  const ServerOptions& options() const { return options_; }
+
+ private:
+  class Errors : public kj::TaskSet::ErrorHandler {
+   public:
+    void taskFailed(kj::Exception&& e) override;
+  };
+  kj::Promise<void> accept_loop();
+  kj::Promise<void> pump_loop();
+  void send_snapshot(Stream& s);
+  bool send_frame(Stream& s, std::int64_t now);
+
+  kj::AsyncIoContext& io_;
+  Control& control_;
+  ServerOptions options_;
+  SceneInfo scene_;
+  std::unique_ptr<PublishedReader> reader_;
+  int listen_fd_ = -1;
+  kj::Own<kj::UnixEventPort::FdObserver> listen_observer_;
+  std::map<std::uint64_t, std::unique_ptr<Client>> clients_;
+  std::map<std::uint64_t, std::unique_ptr<Stream>> streams_;
+  std::uint64_t next_client_ = 1, next_stream_ = 1;
+  ServerCounters counters_;
+  std::vector<std::vector<std::uint32_t>> scratch_;  // per body: indices of one frame
+  std::int64_t refused_logged_ns_ = 0;
+  bool closed_ = false;
+  Errors errors_;
+  kj::Own<kj::TaskSet> tasks_;   // last: accept and pump loops, client disconnects
+};
+
+// A viewer's maxFps as used: within [0.1, 1000], the fallback when not finite or ≤ 0.
+float clamp_fps(float fps, float fallback);
+
+}  // namespace sculpt::server
