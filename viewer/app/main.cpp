@@ -1,0 +1,38 @@
+// sculpt-view: watch sculptd's meshes, offscreen (PNGs) or in a window.
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <exception>
+
+#include "app/options.hpp"
+#include "app/run.hpp"
+#include "app/source.hpp"
+
+int main(int argc, char** argv) {
+  using namespace sculpt::view;
+  int exit_code = 0;
+  const auto options = parse_options(argc, argv, exit_code);
+  if (!options) return exit_code;
+  install_stop_signals();
+  try {
+    const bool display = std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
+    // Images on request are made offscreen unless a window is asked for.
+    const bool headless = options->headless || !display ||
+                          (!options->window && (!options->snapshot.empty() || !options->frames_dir.empty()));
+#ifndef SCULPT_VIEW_HAVE_SDL
+    if (!headless) {
+      fmt::print(stderr, "sculpt-view: built without SDL2: no window mode (use --headless)\n");
+      return 2;
+    }
+#endif
+    auto source = options->scene.empty() ? make_live_source(*options) : make_offline_source(options->scene);
+    if (headless) return run_headless(*options, *source);
+#ifdef SCULPT_VIEW_HAVE_SDL
+    return run_window(*options, *source);
+#endif
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "sculpt-view: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,92 @@
+#include "app/run.hpp"
+
+#include <fmt/format.h>
+
+#include <csignal>
+#include <filesystem>
+
+namespace sculpt::view {
+
+std::atomic<bool> g_stop{false};
+
+void install_stop_signals() {
+  struct sigaction sa {};
+  sa.sa_handler = [](int) { g_stop.store(true); };
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
+Run::Run(const Options& options, Source& source)
+    : options_(options), source_(source), start_(std::chrono::steady_clock::now()) {}
+
+void Run::reset_camera(int width, int height) {
+  const ViewModel& m = source_.model();
+  camera_ = Camera{};
+  const Aabb box = m.scene_bounds.empty() ? m.bounds_now() : m.scene_bounds;
+  camera_.fit(box, static_cast<float>(width) / static_cast<float>(height));
+  const CameraSpec& c = options_.camera;
+  if (c.yaw_deg) camera_.yaw_deg = *c.yaw_deg;
+  if (c.pitch_deg) camera_.pitch_deg = *c.pitch_deg;
+  if (c.distance) camera_.distance = *c.distance;
+  if (c.target) camera_.target = Eigen::Vector3f((*c.target)[0], (*c.target)[1], (*c.target)[2]);
+}
+
+void Run::prepare(int width, int height) {
+  if (!placed_ && source_.has_state()) {
+    reset_camera(width, height);
+    placed_ = true;
+  }
+}
+
+std::vector<std::string> Run::overlay() const {
+  std::vector<std::string> lines = source_.describe();
+  if (fps_ > 0) lines.push_back(fmt::format("VIEW {:.1f} FPS", fps_));
+  return lines;
+}
+
+double Run::elapsed_s() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+bool Run::snapshot_due() const {
+  if (options_.after_frames) return frames_ >= *options_.after_frames;
+  if (options_.after_seconds) return elapsed_s() >= *options_.after_seconds;
+  return frames_ >= 1;
+}
+
+bool Run::finished() const {
+  if (g_stop.load()) return true;
+  if (options_.snapshot.empty()) {
+    if (options_.after_frames && frames_ >= *options_.after_frames) return true;
+  }
+  if (options_.after_seconds && elapsed_s() >= *options_.after_seconds) {
+    // With a snapshot to take, the time limit ends the run only when the
+    // snapshot is waiting for frames that will not come (no state yet).
+    return options_.snapshot.empty() || !source_.has_state() || options_.after_frames.has_value();
+  }
+  return false;
+}
+
+std::string Run::failure() const {
+  if (!options_.snapshot.empty() && !snapshot_written_) {
+    if (g_stop.load()) return "stopped by a signal before the snapshot";
+    if (!source_.has_state()) return fmt::format("nothing to show after {:.1f} s: no snapshot from the daemon", elapsed_s());
+    return fmt::format("the time limit passed after {} of {} frames", frames_, options_.after_frames.value_or(1));
+  }
+  return "";
+}
+
+void Run::write_sequence(const Image& image) {
+  ++sequence_;
+  const auto file = std::filesystem::path(options_.frames_dir) / fmt::format("frame_{:06d}.png", sequence_);
+  write_png(file, image);
+}
+
+void Run::write_snapshot(const Image& image) {
+  write_png(options_.snapshot, image);
+  snapshot_written_ = true;
+  if (!options_.quiet) fmt::print(stderr, "sculpt-view: wrote {} ({}x{})\n", options_.snapshot, image.width, image.height);
+}
+
+}  // namespace sculpt::view
