@@ -895,6 +895,154 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
   return sums;
 }
 
+// --- clay: which entries of a block might yield ---------------------------------
+// Squared lengths against thresholds pulled in by a relative 1e-4 (far more
+// than the rounding of a square, a product and a sqrt), so an entry left
+// unmarked is one the exact test (sqrt, compare) would leave alone: the exact
+// test then runs only on marked entries and the results are the same bits.
+namespace {
+
+template <class S>
+inline constexpr S kYieldShrink = S(1) - S(1e-4);
+template <class S>
+inline constexpr S kYieldGrow = S(1) + S(1e-4);
+
+template <class S>
+[[gnu::always_inline]] inline bool anchor_quiet(S ux, S uy, S uz, S thr2) {
+  return ux * ux + uy * uy + uz * uz <= thr2;
+}
+
+template <class S>
+[[gnu::always_inline]] inline bool spring_quiet(S dx, S dy, S dz, S L, S y) {
+  const S hi = L * (S(1) + y), lo = L * (S(1) - y);
+  const S d2 = dx * dx + dy * dy + dz * dz;
+  return d2 <= (hi * hi) * kYieldShrink<S> && d2 >= (lo * lo) * kYieldGrow<S>;
+}
+
+template <class S>
+bool yield_candidates_scalar(const ForceArgs<S>& a, S yield, S anchor_limit, bool springs, std::uint32_t begin,
+                             std::uint32_t end, std::uint8_t* mask) {
+  constexpr std::uint32_t kRow = kBlock / 8;
+  std::memset(mask, 0, kRow * (1 + (springs ? a.slots : 0)));
+  const S thr2 = (anchor_limit * anchor_limit) * kYieldShrink<S>;
+  bool any = false;
+  for (std::uint32_t i = begin; i < end; ++i)
+    if (!anchor_quiet(a.x[i] - a.rx[i], a.y[i] - a.ry[i], a.z[i] - a.rz[i], thr2)) {
+      mask[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
+      any = true;
+    }
+  if (!springs) return any;
+  for (int s = 0; s < a.slots; ++s) {
+    std::uint8_t* row = mask + kRow * (1 + s);
+    const std::size_t o = static_cast<std::size_t>(s) * a.stride;
+    for (std::uint32_t i = begin; i < end; ++i) {
+      const std::int32_t j = a.nbr[o + i];
+      if (!spring_quiet(a.x[j] - a.x[i], a.y[j] - a.y[i], a.z[j] - a.z[i], a.rest_length[o + i], yield)) {
+        row[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
+        any = true;
+      }
+    }
+  }
+  return any;
+}
+
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+// Eight vertices at a time; tails go scalar. Neighbours come from the packed
+// records when there are any (two 16-byte loads and a transpose per eight, as
+// in the force kernel: hardware gathers are slow here), else by gather.
+__attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float>& a, float yield,
+                                                           float anchor_limit, bool springs, std::uint32_t begin,
+                                                           std::uint32_t end, std::uint8_t* mask_out) {
+  constexpr std::uint32_t kRow = kBlock / 8;
+  // Pointers in locals: the byte stores below could alias anything in `a`.
+  const float* __restrict X = a.x;
+  const float* __restrict Y = a.y;
+  const float* __restrict Z = a.z;
+  const float* __restrict P = a.packed;
+  const std::size_t stride = a.stride;
+  const int slots = springs ? a.slots : 0;
+  alignas(16) std::uint8_t mask[kRow];
+  const std::uint32_t whole = begin + (end - begin) / 8 * 8;
+  const float thr2s = (anchor_limit * anchor_limit) * kYieldShrink<float>;
+  const __m256 thr2 = _mm256_set1_ps(thr2s);
+  unsigned any = 0;
+  std::memset(mask, 0, kRow);
+  for (std::uint32_t i = begin; i < whole; i += 8) {
+    const __m256 ux = _mm256_sub_ps(_mm256_loadu_ps(X + i), _mm256_loadu_ps(a.rx + i));
+    const __m256 uy = _mm256_sub_ps(_mm256_loadu_ps(Y + i), _mm256_loadu_ps(a.ry + i));
+    const __m256 uz = _mm256_sub_ps(_mm256_loadu_ps(Z + i), _mm256_loadu_ps(a.rz + i));
+    const __m256 u2 =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ux, ux), _mm256_mul_ps(uy, uy)), _mm256_mul_ps(uz, uz));
+    const unsigned m = ~static_cast<unsigned>(_mm256_movemask_ps(_mm256_cmp_ps(u2, thr2, _CMP_LE_OQ))) & 0xffu;
+    mask[(i - begin) / 8] = static_cast<std::uint8_t>(m);
+    any |= m;
+  }
+  for (std::uint32_t i = whole; i < end; ++i)
+    if (!anchor_quiet(X[i] - a.rx[i], Y[i] - a.ry[i], Z[i] - a.rz[i], thr2s)) {
+      mask[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
+      any = 1;
+    }
+  std::memcpy(mask_out, mask, kRow);
+  const __m256 up = _mm256_set1_ps(1.0f + yield), down = _mm256_set1_ps(1.0f - yield);
+  const __m256 shrink = _mm256_set1_ps(kYieldShrink<float>), grow = _mm256_set1_ps(kYieldGrow<float>);
+  for (int s = 0; s < slots; ++s) {
+    const std::int32_t* __restrict nb = a.nbr + s * stride;
+    const float* __restrict L = a.rest_length + s * stride;
+    std::memset(mask, 0, kRow);
+    for (std::uint32_t i = begin; i < whole; i += 8) {
+      __m256 xj, yj, zj;
+      if (P) {
+        const float* p[8];
+        for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[i + l]);
+        gather_lanes(p, 0, xj, yj, zj);
+      } else {
+        const __m256i j = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(nb + i));
+        xj = _mm256_i32gather_ps(X, j, 4), yj = _mm256_i32gather_ps(Y, j, 4), zj = _mm256_i32gather_ps(Z, j, 4);
+      }
+      const __m256 dx = _mm256_sub_ps(xj, _mm256_loadu_ps(X + i));
+      const __m256 dy = _mm256_sub_ps(yj, _mm256_loadu_ps(Y + i));
+      const __m256 dz = _mm256_sub_ps(zj, _mm256_loadu_ps(Z + i));
+      const __m256 d2 =
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
+      const __m256 l8 = _mm256_loadu_ps(L + i);
+      const __m256 hi = _mm256_mul_ps(l8, up), lo = _mm256_mul_ps(l8, down);
+      const __m256 quiet =
+          _mm256_and_ps(_mm256_cmp_ps(d2, _mm256_mul_ps(_mm256_mul_ps(hi, hi), shrink), _CMP_LE_OQ),
+                        _mm256_cmp_ps(d2, _mm256_mul_ps(_mm256_mul_ps(lo, lo), grow), _CMP_GE_OQ));
+      const unsigned m = ~static_cast<unsigned>(_mm256_movemask_ps(quiet)) & 0xffu;
+      mask[(i - begin) / 8] = static_cast<std::uint8_t>(m);
+      any |= m;
+    }
+    for (std::uint32_t i = whole; i < end; ++i) {
+      const std::int32_t j = nb[i];
+      if (!spring_quiet(X[j] - X[i], Y[j] - Y[i], Z[j] - Z[i], L[i], yield)) {
+        mask[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
+        any = 1;
+      }
+    }
+    std::memcpy(mask_out + kRow * (1 + s), mask, kRow);
+  }
+  return any != 0;
+}
+#endif
+
+}  // namespace
+
+bool yield_candidates(const ForceArgs<float>& a, float yield, float anchor_limit, bool springs, std::uint32_t begin,
+                      std::uint32_t end, std::uint8_t* mask) {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  const bool avx2 = g_has_avx2;
+  if (avx2 && !g_portable.load(std::memory_order_relaxed))
+    return yield_candidates_avx2(a, yield, anchor_limit, springs, begin, end, mask);
+#endif
+  return yield_candidates_scalar(a, yield, anchor_limit, springs, begin, end, mask);
+}
+
+bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_limit, bool springs,
+                      std::uint32_t begin, std::uint32_t end, std::uint8_t* mask) {
+  return yield_candidates_scalar(a, yield, anchor_limit, springs, begin, end, mask);
+}
+
 const char* active_clone() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES) && defined(__clang__)
   return "none (clang)";

@@ -96,6 +96,20 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                   std::uint32_t oe, float* packed_next, float& potential);
 
+// Clay: marks the entries of block [begin, end) (≤ kBlock vertices) that might
+// yield, conservatively (squared lengths, a relative margin of 1e-4): one bit
+// per vertex, kBlock/8 bytes per row; row 0 the anchors (|x − r| near or past
+// anchor_limit), row 1 + s slot s's springs (strain near or past ±yield; only
+// with `springs`). Uses x, y, z, rx, ry, rz, nbr, rest_length, stride, slots,
+// and packed (spring model: neighbours' positions from the current packed
+// records, which must match x, y, z; or null).
+// An unmarked entry is one the exact test would leave alone. Returns whether any
+// bit is set.
+bool yield_candidates(const ForceArgs<float>& a, float yield, float anchor_limit, bool springs, std::uint32_t begin,
+                      std::uint32_t end, std::uint8_t* mask);
+bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_limit, bool springs,
+                      std::uint32_t begin, std::uint32_t end, std::uint8_t* mask);
+
 // Testing knob: never take the AVX2 packed path (the portable clones still run).
 void force_portable(bool on);
 // Testing and benchmark knob: run whole blocks of the fused pass as separate

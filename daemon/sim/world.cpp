@@ -80,6 +80,13 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   std::size_t max_blocks = 0;
   for (const auto& body : bodies_) max_blocks = std::max<std::size_t>(max_blocks, body.blocks);
   pe_scratch_.resize(max_blocks);
+  std::size_t max_slots = 0;
+  for (const auto& body : bodies_) max_slots = std::max<std::size_t>(max_slots, static_cast<std::size_t>(body.slots));
+  yield_mask_.resize((1 + max_slots) * (kBlock / 8));
+  std::size_t max_n = 0;
+  for (const auto& body : bodies_) max_n = std::max<std::size_t>(max_n, body.n);
+  outcode_.resize(max_n);
+  outcode_stamp_.resize(max_blocks);
   return static_cast<std::uint32_t>(bodies_.size() - 1);
 }
 
@@ -341,22 +348,60 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
     const V3<S> step = geometry::sub(c, c_prev);
     const S step_len = std::sqrt(geometry::dot(step, step));
 
+    // Cheap reject: a triangle's box misses the tool box of this sweep exactly
+    // when its three vertices lie beyond the same face of that box, i.e. when
+    // their outcodes (one bit per face) share a bit. Outcodes are computed a
+    // block at a time (the candidates now, any other block on first use) and
+    // kept current through the pushes below.
+    std::array<S, 3> box_lo, box_hi;
+    for (int ax = 0; ax < 3; ++ax) {
+      box_lo[ax] = std::min(p0[ax], p1[ax]) - r - step_len;
+      box_hi[ax] = std::max(p0[ax], p1[ax]) + r + step_len;
+    }
+    std::array<S, 3> core_lo, core_hi;
+    for (int ax = 0; ax < 3; ++ax) core_lo[ax] = std::min(p0[ax], p1[ax]), core_hi[ax] = std::max(p0[ax], p1[ax]);
+    const S far = (std::max(r, step_len) + r * S(1e-3)) * S(1.01);
+    const S far2 = far * far;
+    std::uint8_t* const oc = outcode_.data();
+    auto code = [&](std::uint32_t i) {
+      return static_cast<std::uint8_t>((b.x[i] < box_lo[0]) | (b.x[i] > box_hi[0]) << 1 | (b.y[i] < box_lo[1]) << 2 |
+                                       (b.y[i] > box_hi[1]) << 3 | (b.z[i] < box_lo[2]) << 4 |
+                                       (b.z[i] > box_hi[2]) << 5);
+    };
+    if (++outcode_epoch_ == 0) {  // wrapped: forget every stamp
+      std::fill(outcode_stamp_.begin(), outcode_stamp_.end(), 0u);
+      outcode_epoch_ = 1;
+    }
+    auto code_block = [&](std::uint32_t blk) {
+      for (std::uint32_t i = b.begin_of(blk), e = b.end_of(blk); i < e; ++i) oc[i] = code(i);
+      outcode_stamp_[blk] = outcode_epoch_;
+    };
+    auto outcode = [&](std::uint32_t i) {
+      if (outcode_stamp_[i / kBlock] != outcode_epoch_) code_block(i / kBlock);
+      return oc[i];
+    };
+    for (std::uint32_t q = 0; q < tc.candidate_count; ++q) code_block(tc.candidates[q]);
+
     // Triangles first: a tool smaller than a face touches no vertex, yet must not pass.
     for (std::uint32_t q = 0; q < tc.candidate_count; ++q) {
       const std::uint32_t blk = tc.candidates[q];
       for (std::uint32_t ti = b.triangle_begin[blk]; ti < b.triangle_begin[blk + 1]; ++ti) {
         const Triangle& tri = b.triangles[ti];
+        if (outcode(tri[0]) & outcode(tri[1]) & outcode(tri[2])) continue;
         const V3<S> A{b.x[tri[0]], b.y[tri[0]], b.z[tri[0]]};
         const V3<S> B{b.x[tri[1]], b.y[tri[1]], b.z[tri[1]]};
         const V3<S> C{b.x[tri[2]], b.y[tri[2]], b.z[tri[2]]};
-        // Cheap reject: triangle box against the tool box of this sweep.
-        bool away = false;
-        for (int ax = 0; ax < 3 && !away; ++ax) {
-          const S tlo = std::min({A[ax], B[ax], C[ax]}), thi = std::max({A[ax], B[ax], C[ax]});
-          const S lo = std::min(p0[ax], p1[ax]) - r - step_len, hi = std::max(p0[ax], p1[ax]) + r + step_len;
-          away = thi < lo || tlo > hi;
+        // Second reject, before the closest points: the gap between the
+        // triangle's box and the core's box bounds their distance from below.
+        // Only a triangle within r of the core, or crossed by it this sweep
+        // (within step_len), is acted on; `far2` has a margin for rounding.
+        S gap2 = 0;
+        for (int ax = 0; ax < 3; ++ax) {
+          const S g = std::max({std::min({A[ax], B[ax], C[ax]}) - core_hi[ax], core_lo[ax] - std::max({A[ax], B[ax], C[ax]}),
+                                S(0)});
+          gap2 += g * g;
         }
-        if (away) continue;
+        if (gap2 > far2) continue;
         V3<S> N = geometry::cross(geometry::sub(B, A), geometry::sub(C, A));
         const S area2 = std::sqrt(geometry::dot(N, N));
         if (!(area2 > S(0)) || !std::isfinite(area2)) continue;
@@ -391,6 +436,7 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
           if (!(w[v] > S(0))) continue;
           const S s = depth * w[v] / ww;
           push_vertex(b, tri[v], geometry::mul(dir, s), dir, tn, dts, tr);
+          oc[tri[v]] = code(tri[v]);  // its block was coded above
         }
         ++pushes;
       }
@@ -496,18 +542,39 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
   // Anchor: the rest position follows the vertex once it is more than
   // yield·(mean edge) away, so the anchor stops pulling the dent back out.
   const S limit = y * b.mean_edge;
+  const bool springs = b.material.model == ForceModel::spring;
+  const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
+  // Most of a block is far from yielding: a vectorised pass over squared
+  // lengths marks what might yield, and only those get the exact test below
+  // (same bits as testing every entry).
+  kernel::ForceArgs<S> fa{};
+  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
+  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
+  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
+  // The current packed records match x, y, z here (the step and every push keep them so).
+  if constexpr (std::is_same_v<S, float>)
+    if (springs && !b.packed[0].empty()) fa.packed = b.packed[b.packed_cur].data();
+  std::uint8_t* mask = yield_mask_.data();
+  const bool marked = kernel::yield_candidates(fa, y, limit, springs, b0, b1, mask);
+  constexpr std::uint32_t kRow = kBlock / 8;
+  // Calls f(i) for every marked vertex of a row, in ascending order.
+  auto each_marked = [&](const std::uint8_t* row, auto&& f) {
+    for (std::uint32_t g = 0; g < kRow; ++g)
+      for (unsigned m = row[g]; m; m &= m - 1) f(b0 + 8 * g + static_cast<std::uint32_t>(std::countr_zero(m)));
+  };
   bool moved = false;
-  for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) {
-    const S ux = b.x[i] - b.rx[i], uy = b.y[i] - b.ry[i], uz = b.z[i] - b.rz[i];
-    const S u = std::sqrt(ux * ux + uy * uy + uz * uz);
-    if (u > limit) {
-      const S keep = limit / u;  // fraction of the displacement that stays elastic
-      b.rx[i] = b.x[i] - ux * keep, b.ry[i] = b.y[i] - uy * keep, b.rz[i] = b.z[i] - uz * keep;
-      moved = true;
-    }
-  }
+  if (marked)
+    each_marked(mask, [&](std::uint32_t i) {
+      const S ux = b.x[i] - b.rx[i], uy = b.y[i] - b.ry[i], uz = b.z[i] - b.rz[i];
+      const S u = std::sqrt(ux * ux + uy * uy + uz * uz);
+      if (u > limit) {
+        const S keep = limit / u;  // fraction of the displacement that stays elastic
+        b.rx[i] = b.x[i] - ux * keep, b.ry[i] = b.y[i] - uy * keep, b.rz[i] = b.z[i] - uz * keep;
+        moved = true;
+      }
+    });
   if (moved) b.block[blk].dirty = true;
-  if (b.material.model != ForceModel::spring) return;
+  if (!springs) return;
   // Springs: perfect plasticity, strain clamped to ±yield; both directed
   // copies of a spring get the same bits, wherever the other one lives.
   auto set_mirror = [&](std::uint32_t j, std::uint32_t i, S value) {
@@ -535,11 +602,15 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
       b.block[i / kBlock].dirty = true;
     }
   };
-  for (int s = 0; s < b.slots; ++s)
-    for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) {
-      const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
-      yield_spring(i, b.nbr[e], b.rest_length[e]);
-    }
+  // An unmarked entry whose mirror yields earlier in this pass gets the value
+  // the exact test would have left unchanged (same length, same clamp), so
+  // skipping it is still exact.
+  if (marked)
+    for (int s = 0; s < b.slots; ++s)
+      each_marked(mask + kRow * (1 + s), [&](std::uint32_t i) {
+        const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
+        yield_spring(i, b.nbr[e], b.rest_length[e]);
+      });
   for (std::uint32_t o = b.overflow_begin[blk]; o < b.overflow_begin[blk + 1]; ++o)
     yield_spring(b.overflow[o].i, b.overflow[o].j, b.overflow[o].rest_length);
 }

@@ -127,6 +127,12 @@ class World {
   std::vector<ChangeRange> changes_;
   std::size_t change_count_ = 0;
   std::vector<double> pe_scratch_;  // per awake block, last substep's potential energy
+  std::vector<std::uint8_t> yield_mask_;  // clay: kernel::yield_candidates' bits for one block
+  // Narrow phase: per vertex, which faces of the sweep's tool box it lies beyond;
+  // valid for a block whose stamp equals the epoch (one epoch per sweep).
+  std::vector<std::uint8_t> outcode_;
+  std::vector<std::uint32_t> outcode_stamp_;
+  std::uint32_t outcode_epoch_ = 0;
   TickStats stats_;
   std::uint64_t tick_ = 0;
   std::uint64_t blowups_total_ = 0;

@@ -1,0 +1,181 @@
+// Where sculptd's long ticks come from: the acceptance scene and session run
+// through the daemon's own stages (replay → ControlMapper → ToolDriver →
+// World::step), tick after tick on this thread with no sleeping, and every
+// tick's step time, collision time, awake vertices, substeps, narrow-phase
+// candidates, contacts and page faults are kept. Prints percentiles and the
+// slowest ticks with what they were doing; --csv FILE writes every tick.
+//
+//   tick_profile --scene tests/data/scenes/sculpt_50k.toml
+//                --session tests/data/sessions/bench_sculpt.jsonl [--ticks 30000] [--csv FILE]
+//
+// Numbers only: it asserts nothing about time.
+#include <sys/resource.h>
+#include <time.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "concurrency/spsc_ring.hpp"
+#include "input/control_mapper.hpp"
+#include "input/mapping.hpp"
+#include "input/replay_source.hpp"
+#include "loop/tool_driver.hpp"
+#include "scene/scene.hpp"
+#include "sim/world.hpp"
+
+namespace {
+
+using namespace sculpt;
+
+std::uint64_t now_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+long minor_faults() {
+  rusage u;
+  getrusage(RUSAGE_THREAD, &u);
+  return u.ru_minflt + u.ru_majflt;
+}
+
+struct TickRecord {
+  std::uint64_t tick;
+  double step_us, collision_us;
+  std::uint32_t awake, candidates, contacts, blowups;
+  long faults;
+};
+
+double pct(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+int usage() {
+  std::fprintf(stderr, "usage: tick_profile --scene FILE --session FILE [--ticks N] [--csv FILE] [--top N]\n");
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string scene_file, session_file, csv;
+  std::uint64_t ticks = 30000;
+  int top = 15;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) return usage();
+    if (a == "--scene") scene_file = argv[++i];
+    else if (a == "--session") session_file = argv[++i];
+    else if (a == "--ticks") ticks = std::strtoull(argv[++i], nullptr, 10);
+    else if (a == "--csv") csv = argv[++i];
+    else if (a == "--top") top = std::atoi(argv[++i]);
+    else return usage();
+  }
+  if (scene_file.empty() || session_file.empty()) return usage();
+
+  const scene::Scene sc = scene::load_scene(scene_file);
+  const double rate = sc.settings.rate_hz;
+  const int slots = static_cast<int>(std::max<std::size_t>(sc.tools.size(), 1));
+  sim::World<float> world(sc.settings, slots);
+  loop::Box box{{0, 0, 0}, {0, 0, 0}};
+  bool any = false;
+  for (const auto& m : sc.meshes) {
+    world.add_body(m.loaded.mesh, sc.material_of(m));
+    for (const auto& p : m.loaded.mesh.positions)
+      for (int k = 0; k < 3; ++k) {
+        if (!any || p[k] < box.lo[k]) box.lo[k] = p[k];
+        if (!any || p[k] > box.hi[k]) box.hi[k] = p[k];
+        any = any || k == 2;
+      }
+  }
+  std::vector<loop::ToolSpec> specs;
+  std::vector<input::ToolRoute> routes;
+  for (const auto& t : sc.tools) {
+    loop::ToolSpec s;
+    s.shape = t.shape == scene::ToolShape::capsule ? sim::ToolShape::capsule : sim::ToolShape::sphere;
+    s.radius = t.radius, s.half_length = t.half_length, s.position = t.position, s.speed = t.speed;
+    specs.push_back(s);
+    input::ToolRoute r;
+    r.device = t.device;
+    r.device_name = t.device_name;
+    r.stick = t.stick == scene::Stick::right ? input::Stick::right
+              : t.stick == scene::Stick::main ? input::Stick::main
+                                              : input::Stick::left;
+    routes.push_back(r);
+  }
+  loop::DriverLimits limits;  // sculptd's defaults (tool margin 0.1 m)
+  limits.bounds = loop::tool_bounds(box, specs, 0.1);
+  loop::ToolDriver driver(specs, limits, rate);
+  concurrency::SpscRing<input::InputMessage> ring(4096);
+  input::ControlMapper mapper(driver.size());
+  input::ToolRouter router(routes);
+  const input::MappingConfig mapping = input::parse_mapping(toml::table{});
+  input::ReplaySource replay(session_file, rate, [&](std::uint8_t slot, const input::DeviceInfo& info) {
+    router.detach(slot);
+    return router.attach(slot, info, mapping);
+  });
+  replay.start(1);
+  world.set_stage_clock(now_ns);
+
+  std::vector<sim::Tool> tools(sc.tools.size());
+  std::vector<TickRecord> rec;
+  rec.reserve(ticks);
+  std::vector<int> substeps(world.body_count());
+  for (std::size_t b = 0; b < world.body_count(); ++b) substeps[b] = world.substeps(b);
+  for (std::uint64_t tick = 1; tick <= ticks; ++tick) {
+    if (!replay.finished()) replay.pump(ring, tick + 1000);
+    mapper.drain(ring, tick);  // what sculptd's input stage does
+    driver.update_from(mapper.controls(), std::span<sim::Tool>(tools));
+    const long f0 = minor_faults();
+    const std::uint64_t t0 = now_ns();
+    world.step(tools);
+    const std::uint64_t t1 = now_ns();
+    const long f1 = minor_faults();
+    const sim::TickStats& st = world.stats();
+    rec.push_back({tick, (t1 - t0) * 1e-3, world.collision_ns() * 1e-3, st.awake_vertices, st.candidate_blocks,
+                   st.contacts, st.blowups, f1 - f0});
+  }
+
+  std::vector<double> step, coll, awake;
+  for (const auto& r : rec) step.push_back(r.step_us), coll.push_back(r.collision_us), awake.push_back(r.awake);
+  std::printf("# %s, %s: %llu ticks; substeps per body:", scene_file.c_str(), session_file.c_str(),
+              static_cast<unsigned long long>(ticks));
+  for (std::size_t b = 0; b < world.body_count(); ++b) std::printf(" %d (%u vertices)", substeps[b], world.body(b).n);
+  std::printf("\nstep us      p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(step, 0.5), pct(step, 0.9),
+              pct(step, 0.99), pct(step, 0.999), pct(step, 1.0));
+  std::printf("collision us p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(coll, 0.5), pct(coll, 0.9),
+              pct(coll, 0.99), pct(coll, 0.999), pct(coll, 1.0));
+  std::printf("awake verts  p50 %.0f p90 %.0f p99 %.0f max %.0f\n", pct(awake, 0.5), pct(awake, 0.9),
+              pct(awake, 0.99), pct(awake, 1.0));
+  long faults = 0;
+  std::uint64_t over = 0, blowups = 0;
+  for (const auto& r : rec) faults += r.faults, over += r.step_us > 1000.0, blowups += r.blowups;
+  std::printf("page faults during steps: %ld; steps over 1 ms: %llu; blowups %llu; final hash %016llx\n", faults,
+              static_cast<unsigned long long>(over), static_cast<unsigned long long>(blowups), static_cast<unsigned long long>(world.hash()));
+  std::vector<TickRecord> slow = rec;
+  std::sort(slow.begin(), slow.end(), [](const TickRecord& a, const TickRecord& b) { return a.step_us > b.step_us; });
+  std::printf("slowest ticks: tick step_us collision_us awake candidates contacts blowups faults\n");
+  for (int i = 0; i < top && i < static_cast<int>(slow.size()); ++i)
+    std::printf("  %llu %.1f %.1f %u %u %u %u %ld\n", static_cast<unsigned long long>(slow[i].tick), slow[i].step_us,
+                slow[i].collision_us, slow[i].awake, slow[i].candidates, slow[i].contacts, slow[i].blowups,
+                slow[i].faults);
+  if (!csv.empty()) {
+    FILE* f = std::fopen(csv.c_str(), "w");
+    if (!f) {
+      std::fprintf(stderr, "tick_profile: cannot write %s: %s\n", csv.c_str(), std::strerror(errno));
+      return 1;
+    }
+    std::fprintf(f, "tick,step_us,collision_us,awake,candidates,contacts,blowups,faults\n");
+    for (const auto& r : rec)
+      std::fprintf(f, "%llu,%.2f,%.2f,%u,%u,%u,%u,%ld\n", static_cast<unsigned long long>(r.tick), r.step_us,
+                   r.collision_us, r.awake, r.candidates, r.contacts, r.blowups, r.faults);
+    std::fclose(f);
+  }
+  return 0;
+}
