@@ -11,6 +11,10 @@ int main(int argc, char** argv) {
   sculpt::ctl::add_inspect_command(app);
   sculpt::ctl::add_record_command(app);
   sculpt::ctl::add_replay_command(app);
+  sculpt::ctl::add_status_command(app);
+  sculpt::ctl::add_devices_command(app);
+  sculpt::ctl::add_save_command(app);
+  sculpt::ctl::add_control_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,41 @@
+#include "daemon_link.hpp"
+
+#include <cstdio>
+
+#include "client/socket_path.hpp"
+#include "commands.hpp"
+
+namespace sculpt::ctl {
+
+void add_daemon_options(CLI::App& cmd, DaemonArgs& args) {
+  cmd.add_option("--socket", args.socket,
+                 "sculptd's socket (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY/sculptd.sock, "
+                 "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)")
+      ->type_name("PATH");
+  cmd.add_flag("--json", args.json, "print JSON instead of text");
+}
+
+void fail(int status, const std::string& message) {
+  std::fprintf(stderr, "sculptctl: %s\n", message.c_str());
+  throw CommandFailed{status};
+}
+
+void with_daemon(const DaemonArgs& args, const std::function<void(client::Connection&, kj::WaitScope&)>& f) {
+  const std::string path = client::resolve_socket_path(args.socket);
+  try {
+    auto io = kj::setupAsyncIo();
+    client::Connection c(io, path, "sculptctl " SCULPTCTL_VERSION);
+    client::guarded("sculptd", [&] { f(c, io.waitScope); });
+  } catch (const client::ClientError& e) {
+    switch (e.kind()) {
+      case client::ClientError::Kind::no_daemon:
+        fail(kExitNoDaemon, std::string(e.what()) + " (is sculptd running? --socket or $SCULPTD_SOCKET choose another)");
+      case client::ClientError::Kind::incompatible:
+      case client::ClientError::Kind::refused: fail(kExitIncompatible, e.what());
+      case client::ClientError::Kind::failed: fail(kExitConnection, e.what());
+    }
+    fail(kExitConnection, e.what());
+  }
+}
+
+}  // namespace sculpt::ctl
