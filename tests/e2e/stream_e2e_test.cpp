@@ -1,0 +1,431 @@
+// Streaming end to end on the host (no devices: a recorded session replays
+// into sculptd): many viewers reconstruct the sculpt within their tolerance,
+// a stalled viewer slows nobody, bad clients are dropped while the others are
+// served, an old protocol is refused with a reason, an idle scene sends only
+// keep-alives, and every sculptctl command against a running daemon.
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <kj/async-io.h>
+
+#include "client/connection.hpp"
+#include "client/mesh_mirror.hpp"
+#include "sculptd_process.hpp"
+#include "stream_viewer.hpp"
+
+namespace sculpt::e2e {
+namespace {
+
+std::string sessions(const std::string& name) { return std::string(SCULPT_SESSIONS_DIR) + "/" + name; }
+
+struct Daemon {
+  std::string socket;
+  std::unique_ptr<Sculptd> process;
+
+  Daemon(const std::string& name, std::vector<std::string> args) : socket(temp_path(name + ".sock")) {
+    ::unlink(socket.c_str());
+    args.insert(args.end(), {"--socket", socket});
+    process = std::make_unique<Sculptd>(args);
+    if (!process->wait_for_log("sculptd ready", 60s)) throw std::runtime_error("sculptd did not start:\n" + process->log());
+  }
+  ~Daemon() {
+    process->signal(SIGTERM);
+    process->wait_exit(30s);
+    ::unlink(socket.c_str());
+  }
+};
+
+// One control connection on the calling thread.
+struct Control {
+  kj::AsyncIoContext io = kj::setupAsyncIo();
+  client::Connection c;
+  explicit Control(const std::string& socket) : c(io, socket, "stream-e2e-test") {}
+
+  proto::Stats::Reader status_into(capnp::Response<proto::Session::StatusResults>& r) { return r.getStats(); }
+  bool pause(bool p) {
+    if (p) return c.session().pauseRequest().send().wait(io.waitScope).getResult().getOk();
+    return c.session().resumeRequest().send().wait(io.waitScope).getResult().getOk();
+  }
+  std::uint64_t overruns() {
+    return c.session().statusRequest().send().wait(io.waitScope).getStats().getOverruns();
+  }
+  std::uint64_t viewers() { return c.session().statusRequest().send().wait(io.waitScope).getStats().getViewers(); }
+  // The daemon's whole state now, as a mirror.
+  client::MeshMirror snapshot() {
+    auto r = c.session().snapshotRequest().send().wait(io.waitScope);
+    client::MeshMirror m;
+    m.apply(r.getSnapshot());
+    return m;
+  }
+};
+
+// Largest distance between a viewer's copy and the truth, over every vertex.
+double max_error(const std::vector<client::MirrorMesh>& have, const std::vector<client::MirrorMesh>& truth) {
+  if (have.size() != truth.size()) return INFINITY;
+  double worst = 0;
+  for (std::size_t m = 0; m < have.size(); ++m) {
+    if (have[m].positions.size() != truth[m].positions.size()) return INFINITY;
+    for (std::size_t i = 0; i < have[m].positions.size(); i += 3) {
+      double d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double d = have[m].positions[i + a] - truth[m].positions[i + a];
+        d2 += d * d;
+      }
+      worst = std::max(worst, std::sqrt(d2));
+    }
+  }
+  return worst;
+}
+
+// Pauses the daemon, then checks every viewer reaches the final state within
+// its tolerance (the last frames arrive within about a keep-alive period).
+void expect_viewers_match(Control& control, std::vector<std::unique_ptr<StreamViewer>>& viewers) {
+  ASSERT_TRUE(control.pause(true));
+  // A snapshot after the pause is the final state; every viewer gets a frame
+  // at or after its sequence (changes, or the next keep-alive).
+  const client::MeshMirror truth = control.snapshot();
+  for (auto& v : viewers) {
+    ASSERT_TRUE(v->wait_for_sequence(truth.sequence(), 20s)) << v->seen().error_text;
+    // The frame carrying the last changes may be the one after the first at
+    // this sequence (it was computed from a sync that began before it).
+    double err = max_error(v->meshes(), truth.meshes());
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (err > v->tolerance() * (1 + 1e-5) + 1e-7 && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(20ms);
+      err = max_error(v->meshes(), truth.meshes());
+    }
+    EXPECT_LE(err, v->tolerance() * (1 + 1e-5) + 1e-7) << "viewer with tolerance " << v->tolerance();
+    EXPECT_FALSE(v->seen().error) << v->seen().error_text;
+  }
+}
+
+TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTolerance) {
+  Daemon d("sixteen", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  Control control(d.socket);
+  const float tolerances[] = {0.0f, 1e-4f, 1e-3f, 5e-3f};
+  const float rates[] = {30.0f, 60.0f, 120.0f, 500.0f};
+  std::vector<std::unique_ptr<StreamViewer>> viewers;
+  auto add = [&](int i) {
+    viewers.push_back(std::make_unique<StreamViewer>(d.socket, tolerances[i % 4], rates[(i / 4) % 4]));
+    ASSERT_FALSE(viewers.back()->seen().error) << viewers.back()->seen().error_text;
+  };
+  for (int i = 0; i < 8; ++i) add(i);
+  std::this_thread::sleep_for(1s);
+  for (int i = 8; i < 16; ++i) add(i);
+  std::this_thread::sleep_for(500ms);
+  // Four leave mid-run, four new ones come.
+  viewers.erase(viewers.begin(), viewers.begin() + 4);
+  for (int i = 16; i < 20; ++i) add(i);
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_EQ(control.viewers(), 16u);
+
+  expect_viewers_match(control, viewers);
+  std::uint64_t with_meshes = 0;
+  for (auto& v : viewers) with_meshes += v->seen().frames_with_meshes;
+  EXPECT_GT(with_meshes, 0u) << "the session sculpted nothing the viewers saw";
+}
+
+std::uint64_t rss_kb(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stoull(line.substr(6));
+  return 0;
+}
+
+TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
+  // 200 Hz on a small scene: no noise on a shared machine makes an overrun.
+  Daemon d("stall", {"--scene", "builtin:default", "--rate", "200", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  Control control(d.socket);
+  std::vector<std::unique_ptr<StreamViewer>> viewers;
+  viewers.push_back(std::make_unique<StreamViewer>(d.socket, 0.0f, 1000.0f));  // the one that stalls
+  viewers.push_back(std::make_unique<StreamViewer>(d.socket, 0.0f, 60.0f));
+  ASSERT_TRUE(viewers[0]->wait_for_frames(3, 20s)) << viewers[0]->seen().error_text;
+  const std::uint64_t rss_before = rss_kb(d.process->pid());
+  viewers[0]->stop_reading();
+  const std::uint64_t other_before = viewers[1]->seen().frames;
+  std::this_thread::sleep_for(4s);
+  EXPECT_TRUE(viewers[0]->blocked_now());
+  const std::uint64_t rss_during = rss_kb(d.process->pid());
+  EXPECT_GT(viewers[1]->seen().frames, other_before + 10) << "the other viewer was held up";
+  EXPECT_EQ(control.overruns(), 0u);
+  // A queue of 4 s of 1000-fps frames would be tens of MB; one call in flight is not.
+  EXPECT_LT(rss_during, rss_before + 16 * 1024) << "RSS " << rss_before << " kB -> " << rss_during << " kB";
+  viewers[0]->resume_reading();
+  expect_viewers_match(control, viewers);
+  EXPECT_EQ(control.overruns(), 0u);
+}
+
+int connect_raw(const std::string& path) {
+  sockaddr_un a{};
+  a.sun_family = AF_UNIX;
+  std::strncpy(a.sun_path, path.c_str(), sizeof a.sun_path - 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+bool write_all(int fd, const void* data, std::size_t n) {
+  const auto* p = static_cast<const char*>(data);
+  while (n > 0) {
+    const ssize_t w = ::send(fd, p, n, MSG_NOSIGNAL);
+    if (w <= 0) return false;
+    p += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  return true;
+}
+
+TEST(Stream, GarbageTruncatedSilentAndRapidClientsLeaveTheOthersServed) {
+  Daemon d("garbage", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  StreamViewer good(d.socket, 0.0f, 60.0f);
+  ASSERT_TRUE(good.wait_for_frames(2, 20s)) << good.seen().error_text;
+
+  // A client that connects and never speaks, kept open throughout.
+  const int silent = connect_raw(d.socket);
+  ASSERT_GE(silent, 0);
+
+  // Random bytes.
+  std::mt19937 rng(7);
+  for (int i = 0; i < 20; ++i) {
+    const int fd = connect_raw(d.socket);
+    ASSERT_GE(fd, 0);
+    std::vector<std::uint8_t> junk(static_cast<std::size_t>(1 + rng() % 4096));
+    for (auto& b : junk) b = static_cast<std::uint8_t>(rng());
+    write_all(fd, junk.data(), junk.size());
+    ::close(fd);
+  }
+  // A message header announcing far more than the limit, then nothing.
+  {
+    const int fd = connect_raw(d.socket);
+    const std::uint32_t header[2] = {0, 1u << 28};  // one segment of 2^28 words
+    write_all(fd, header, sizeof header);
+    ::close(fd);
+  }
+  // A valid-looking header whose body never completes (truncated).
+  {
+    const int fd = connect_raw(d.socket);
+    const std::uint32_t header[2] = {0, 64};
+    write_all(fd, header, sizeof header);
+    const std::uint64_t some[8] = {};
+    write_all(fd, some, sizeof some);
+    ::close(fd);
+  }
+  // Deep garbage that parses: a flood of segment-count-heavy headers.
+  {
+    const int fd = connect_raw(d.socket);
+    const std::uint32_t header[2] = {1000, 0};  // 1001 segments: over capnp's limit
+    write_all(fd, header, sizeof header);
+    ::close(fd);
+  }
+  // 1000 rapid connects, half of them saying hello.
+  for (int i = 0; i < 1000; ++i) {
+    if (i % 2 == 0) {
+      const int fd = connect_raw(d.socket);
+      ASSERT_GE(fd, 0) << "connect " << i;
+      ::close(fd);
+    } else {
+      auto io = kj::setupAsyncIo();
+      client::Connection c(io, d.socket, "rapid");
+    }
+  }
+  const std::uint64_t frames = good.seen().frames;
+  ASSERT_TRUE(good.wait_for_frames(frames + 5, 20s)) << good.seen().error_text;
+  EXPECT_FALSE(good.seen().error) << good.seen().error_text;
+
+  Control control(d.socket);
+  EXPECT_EQ(control.viewers(), 1u);
+  // The silent client is still connected, and harmless.
+  char byte;
+  EXPECT_EQ(::recv(silent, &byte, 1, MSG_DONTWAIT), -1);
+  EXPECT_EQ(errno, EAGAIN);
+  ::close(silent);
+  std::vector<std::unique_ptr<StreamViewer>> viewers;
+  viewers.push_back(std::make_unique<StreamViewer>(d.socket, 1e-4f, 60.0f));
+  expect_viewers_match(control, viewers);
+}
+
+TEST(Stream, AClientOfAnotherMajorVersionIsRefusedWithAReason) {
+  Daemon d("major", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  auto io = kj::setupAsyncIo();
+  try {
+    client::Connection c(io, d.socket, "future-client", proto::PROTOCOL_MAJOR + 1, 0);
+    FAIL() << "a client speaking major " << proto::PROTOCOL_MAJOR + 1 << " was accepted";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.kind(), client::ClientError::Kind::incompatible);
+    EXPECT_NE(std::string(e.what()).find("daemon speaks protocol 1, this client 2"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(d.process->wait_for_log("refused", 10s));
+  client::Connection ok(io, d.socket, "current-client");  // and the daemon still serves the right one
+  EXPECT_FALSE(ok.server().empty());
+}
+
+TEST(Stream, NoDaemonIsNamedClearly) {
+  auto io = kj::setupAsyncIo();
+  const std::string path = temp_path("nobody.sock");
+  try {
+    client::Connection c(io, path, "lonely");
+    FAIL() << "connected to nothing";
+  } catch (const client::ClientError& e) {
+    EXPECT_EQ(e.kind(), client::ClientError::Kind::no_daemon);
+    EXPECT_EQ(std::string(e.what()), "no daemon is listening on " + path);
+  }
+}
+
+TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
+  // A session with its gamepad and no input at all: nothing ever moves.
+  const std::string idle = temp_path("idle.jsonl");
+  {
+    std::ifstream in(sessions("push.jsonl"));
+    std::string header;
+    std::getline(in, header);
+    std::ofstream(idle) << header << "\n";
+  }
+  Daemon d("idle", {"--scene", "builtin:default", "--input", "replay:" + idle});
+  StreamViewer v(d.socket, 0.0f, 120.0f);
+  std::this_thread::sleep_for(3500ms);
+  const auto seen = v.seen();
+  EXPECT_FALSE(seen.error) << seen.error_text;
+  EXPECT_EQ(seen.snapshots, 1u);
+  EXPECT_EQ(seen.frames_with_meshes, 0u);
+  EXPECT_EQ(seen.frames, seen.keepalives);
+  EXPECT_GE(seen.keepalives, 2u);   // about one a second
+  EXPECT_LE(seen.keepalives, 6u);   // not one per tick, nor per maxFps period
+  ::unlink(idle.c_str());
+}
+
+// --- sculptctl ------------------------------------------------------------------
+
+struct CtlRun {
+  int status = -1;
+  std::string out, err;
+};
+
+CtlRun sculptctl(const std::vector<std::string>& args) {
+  const std::string err_file = temp_path("ctl.err");
+  std::string cmd = SCULPTCTL_BIN;
+  for (const auto& a : args) cmd += " '" + a + "'";
+  cmd += " 2>" + err_file;
+  CtlRun r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int st = ::pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  r.err = read_text(err_file);
+  ::unlink(err_file.c_str());
+  return r;
+}
+
+std::set<std::string> keys_of(const nlohmann::json& j) {
+  std::set<std::string> k;
+  for (const auto& [key, value] : j.items()) k.insert(key);
+  return k;
+}
+
+TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
+  const std::string stats = temp_path("ctl-stats.json");
+  Daemon d("ctl", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"), "--stats-json", stats});
+  const std::vector<std::string> sock = {"--socket", d.socket};
+  auto with = [&](std::vector<std::string> a) {
+    a.insert(a.end(), sock.begin(), sock.end());
+    return sculptctl(a);
+  };
+
+  CtlRun r = with({"status"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("running"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("jitter"), std::string::npos) << r.out;
+
+  r = with({"status", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto status = nlohmann::json::parse(r.out);
+  for (const char* k : {"rate_hz", "ticks", "overruns", "jitter_us", "stage_us", "vertices_total", "vertices_awake",
+                        "viewers", "devices", "ff_uploads", "bytes_sent", "blowups"})
+    EXPECT_TRUE(status.contains(k)) << k;
+  EXPECT_TRUE(status["jitter_us"].contains("p99"));
+  EXPECT_EQ(status["devices"], 1);
+
+  r = with({"devices"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("slot 0"), std::string::npos) << r.out;
+  r = with({"devices", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out).size(), 1u);
+
+  r = with({"pause"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = with({"status", "--json"});
+  const auto t0 = nlohmann::json::parse(r.out)["ticks"].get<std::uint64_t>();
+  std::this_thread::sleep_for(300ms);
+  r = with({"status"});
+  EXPECT_NE(r.out.find("paused"), std::string::npos) << r.out;
+  r = with({"status", "--json"});
+  EXPECT_EQ(nlohmann::json::parse(r.out)["ticks"].get<std::uint64_t>(), t0) << "a paused daemon ticked";
+  r = with({"resume", "--json"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["ok"], true);
+
+  for (const char* ext : {"obj", "ply", "stl", "glb"}) {
+    const std::string out = temp_path(std::string("saved.") + ext);
+    r = with({"save", out});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_GT(read_text(out).size(), 100u) << ext;
+    ::unlink(out.c_str());
+  }
+  r = with({"save", temp_path("saved.xyz")});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("saved.xyz"), std::string::npos) << r.err;
+
+  // A bad scene names the file and keeps the sculpt; a good one loads.
+  const std::string bad = temp_path("bad.toml");
+  std::ofstream(bad) << "[settings]\nrate_hz = \"fast\"\n";
+  r = with({"load", bad});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
+  ::unlink(bad.c_str());
+  r = with({"load", std::string(SCULPT_TEST_DATA) + "/scenes/sculpt_50k.toml"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = with({"status", "--json"});
+  EXPECT_GT(nlohmann::json::parse(r.out)["vertices_total"].get<std::uint64_t>(), 40000u);
+  r = with({"reset"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  r = with({"load", "builtin:default", "--json"});
+  EXPECT_EQ(r.status, 0) << r.err;
+
+  // --stats-json at exit has exactly the keys status --json prints.
+  d.process->signal(SIGTERM);
+  ASSERT_EQ(d.process->wait_exit(30s), 0);
+  EXPECT_EQ(keys_of(read_json(stats)), keys_of(status));
+  ::unlink(stats.c_str());
+}
+
+TEST(Sculptctl, NoDaemonIsADistinctExitStatus) {
+  const std::string path = temp_path("nobody.sock");
+  for (const char* cmd : {"status", "devices", "pause", "resume", "reset"}) {
+    CtlRun r = sculptctl({cmd, "--socket", path});
+    EXPECT_EQ(r.status, 3) << cmd;
+    EXPECT_NE(r.err.find("no daemon is listening on " + path), std::string::npos) << r.err;
+  }
+  CtlRun r = sculptctl({"save", temp_path("x.obj"), "--socket", path});
+  EXPECT_EQ(r.status, 3);
+  r = sculptctl({"load", "builtin:default", "--socket", path});
+  EXPECT_EQ(r.status, 3);
+}
+
+}  // namespace
+}  // namespace sculpt::e2e
