@@ -135,6 +135,7 @@ class SculptdImpl final : public proto::Sculptd::Server {
     r.setMinor(proto::PROTOCOL_MINOR);
     r.setServer(server_.options().name);
     const std::string who = p.getClient();
+    server_.said_hello(client_);
     if (p.getMajor() != proto::PROTOCOL_MAJOR) {
       const std::string reason = fmt::format("this daemon speaks protocol {}.{}, the client {}.{}; no major but {} "
                                              "is understood",
@@ -163,6 +164,7 @@ class SculptdImpl final : public proto::Sculptd::Server {
 struct Server::Client {
   std::uint64_t id = 0;
   std::string peer;
+  bool hello = false;   // a valid hello arrived (else: garbage, a silent or truncated client)
   kj::Own<kj::AsyncIoStream> stream;
   kj::Own<capnp::TwoPartyVatNetwork> network;
   kj::Own<capnp::RpcSystem<capnp::rpc::twoparty::VatId>> rpc;
@@ -258,7 +260,11 @@ void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
       [this, id] {
         auto it = clients_.find(id);
         if (it == clients_.end()) return;
-        if (options_.log) options_.log(6, fmt::format("client {} disconnected ({})", id, it->second->peer));
+        if (options_.log) {
+          if (it->second->hello) options_.log(6, fmt::format("client {} disconnected ({})", id, it->second->peer));
+          else options_.log(4, fmt::format("client {} ({}) dropped: it sent no valid hello (garbage, truncated or "
+                                           "nothing)", id, it->second->peer));
+        }
         ++counters_.disconnected;
         for (auto& [sid, s] : streams_)
           if (s->client == id) s->dead = true;
@@ -299,6 +305,10 @@ void Server::set_rate(std::uint64_t id, float fps) {
 void Server::set_tolerance(std::uint64_t id, float tolerance) {
   if (auto it = streams_.find(id); it != streams_.end())
     it->second->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+}
+
+void Server::said_hello(std::uint64_t client) {
+  if (auto it = clients_.find(client); it != clients_.end()) it->second->hello = true;
 }
 
 void Server::fill_status(proto::Stats::Builder out) {

@@ -89,6 +89,7 @@ class Server {
   void remove_stream(std::uint64_t id);
   void set_rate(std::uint64_t id, float fps);
   void set_tolerance(std::uint64_t id, float tolerance);
+  void said_hello(std::uint64_t client);
   const ServerOptions& options() const { return options_; }
 
  private:

@@ -1,0 +1,158 @@
+// The sim thread's hand-off to the server: the reader's copy equals the
+// world's positions (file order) after any tick; only changed blocks get a
+// new serial; publishing allocates nothing on the sim thread (the real
+// stages, with a reader syncing on another thread meanwhile); stats travel
+// through the protocol and back to the same JSON.
+#include <linux/input.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include <capnp/message.h>
+#include <gtest/gtest.h>
+
+#include "haptics/feedback_board.hpp"
+#include "loop/sim_thread.hpp"
+#include "loop/stats_json.hpp"
+#include "main/pipeline.hpp"
+#include "server/encode.hpp"
+#include "server/published_state.hpp"
+#include "sim/shapes.hpp"
+#include "support/allocation_counter.hpp"
+
+namespace sculpt::server {
+namespace {
+
+using namespace std::chrono_literals;
+
+void expect_reader_matches(const PublishedReader& r, const sim::World<float>& world) {
+  for (std::size_t b = 0; b < world.body_count(); ++b) {
+    std::vector<sim::Vec3f> truth(world.body(b).n);
+    world.positions(b, truth);
+    const auto got = r.positions(b);
+    ASSERT_EQ(got.size(), truth.size() * 3);
+    for (std::size_t i = 0; i < truth.size(); ++i)
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(got[i * 3 + a], truth[i][a]) << "body " << b << " vertex " << i;
+  }
+}
+
+TEST(Published, TheReaderHoldsTheWorldsPositionsInFileOrderAndOnlyChangedBlocksMove) {
+  sim::World<float> world(sim::SimSettings{}, 1);
+  world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
+  world.add_body(sim::make_icosphere(0.05f, 2), sim::Material{});
+  PublishedState state(world, 1000.0);
+  PublishedReader reader(state);
+  expect_reader_matches(reader, world);
+  const std::uint64_t s0 = reader.serial();
+
+  // Push vertex 5 of body 0: only its neighbourhood wakes.
+  world.set_state(0, 5, {0.0, 0.08, 0.0}, {0, 0, 0});
+  std::vector<sim::Tool> tools(1);
+  tools[0].active = false;
+  for (std::uint64_t t = 0; t < 20; ++t) {
+    world.step(tools);
+    state.publish(t, world, tools, 1000 + static_cast<std::int64_t>(t));
+  }
+  reader.sync();
+  expect_reader_matches(reader, world);
+  EXPECT_EQ(reader.header().tick, 20u);
+  EXPECT_EQ(reader.header().published_ns, 1019);
+  std::uint32_t moved = 0;
+  for (std::uint32_t k = 0; k < reader.blocks(0); ++k) moved += reader.block_serial(0, k) > s0;
+  EXPECT_GT(moved, 0u);
+  for (std::uint32_t k = 0; k < reader.blocks(1); ++k) EXPECT_EQ(reader.block_serial(1, k), 1u) << "body 1 never moved";
+  // Nothing new: nothing changes.
+  const std::uint64_t before = reader.serial();
+  reader.sync();
+  for (std::uint32_t k = 0; k < reader.blocks(0); ++k) EXPECT_LE(reader.block_serial(0, k), before);
+}
+
+struct Marking : loop::TickStages {
+  explicit Marking(daemon::SculptStages& s) : stages(s) {}
+  daemon::SculptStages& stages;
+  void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
+    support::count_allocations_on_this_thread(true);
+    stages.input(tick, tools);
+  }
+  void publish(std::uint64_t tick, const sim::World<float>& world) override { stages.publish(tick, world); }
+};
+
+TEST(Published, PublishingAllocatesNothingOnTheSimThreadWhileAReaderSyncs) {
+  sim::World<float> world(sim::SimSettings{}, 1);
+  world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
+  haptics::FeedbackBoard board(1);
+  loop::DriverLimits limits;
+  limits.bounds = loop::Box{{-1, -1, -1}, {1, 1, 1}};
+  loop::ToolSpec spec;
+  spec.position = {0, 0.09, 0};
+  daemon::SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  PublishedState state(world, 1000.0);
+  stages.set_published(&state);
+  Marking marking(stages);
+  input::DeviceBinding b;
+  input::AxisBinding y;
+  y.code = ABS_Y;
+  y.tool = 0;
+  y.component = 1;
+  y.scale = -1.0f;
+  y.calibration.minimum = -512;
+  y.calibration.maximum = 511;
+  b.add_axis(y);
+  b.tool_mask = 1;
+  ASSERT_TRUE(stages.ring().try_push(input::InputMessage::attach(0, b)));
+
+  loop::SimThreadOptions o;
+  o.max_ticks = 600;
+  loop::SimThread thread(world, marking, 1, o);
+  PublishedReader reader(state);
+  support::reset_counted_allocations();
+  thread.start();
+  std::uint64_t syncs = 0;
+  for (int i = 0; i < 200 && !thread.finished(); ++i) {
+    input::InputFrame f;
+    f.slot = 0;
+    f.push({EV_ABS, ABS_Y, 511});
+    f.push({EV_SYN, SYN_REPORT, 0});
+    stages.ring().try_push(input::InputMessage::of_frame(f));
+    if (i == 100) thread.request_pause(true);   // commands too: no allocation
+    if (i == 120) thread.request_pause(false);
+    reader.sync();
+    ++syncs;
+    std::this_thread::sleep_for(1ms);
+  }
+  while (!thread.finished()) {
+    reader.sync();
+    std::this_thread::sleep_for(1ms);
+  }
+  thread.stop();
+  EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated";
+  EXPECT_GT(board.read(0).onsets, 0u) << "the tool never touched the ball";
+  reader.sync();
+  expect_reader_matches(reader, world);
+  EXPECT_EQ(reader.header().tick, 600u);
+  EXPECT_GT(syncs, 10u);
+}
+
+TEST(Encode, StatsTravelThroughTheProtocolToTheSameJson) {
+  DaemonStatus d;
+  d.stats.rate_hz = 1000;
+  d.stats.ticks = 12345;
+  d.stats.overruns = 2;
+  d.stats.jitter_us = {10, 50, 90};
+  d.stats.stage_us[2] = {1.5, 2.5, 3.5};
+  d.stats.vertices_total = 50000;
+  d.stats.vertices_awake = 300;
+  d.stats.viewers = 3;
+  d.stats.devices = 1;
+  d.stats.ff_uploads = 7;
+  d.stats.bytes_sent = 1 << 20;
+  d.stats.blowups = 0;
+  capnp::MallocMessageBuilder m;
+  fill_stats(m.initRoot<proto::Stats>(), d);
+  const auto back = stats_from(m.getRoot<proto::Stats>().asReader());
+  EXPECT_EQ(loop::stats_json(back).dump(), loop::stats_json(d.stats).dump());
+}
+
+}  // namespace
+}  // namespace sculpt::server
