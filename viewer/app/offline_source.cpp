@@ -38,6 +38,8 @@ void fill_from_scene_file(ViewModel& model, const std::string& scene_file) {
     v.radius = static_cast<float>(t.radius);
     v.half_length = static_cast<float>(t.half_length);
     v.position = {static_cast<float>(t.position[0]), static_cast<float>(t.position[1]), static_cast<float>(t.position[2])};
+    // Capsules start upright (sculptd's ToolDriver): +x turned onto +y.
+    if (v.shape == ToolShape::capsule) v.orientation = {0.70710678f, 0.0f, 0.0f, 0.70710678f};
     model.tools.push_back(v);
   }
   model.scene_bounds = model.bounds_now();

@@ -215,9 +215,9 @@ ViewMesh::Dirty ViewMesh::take_dirty(std::uint32_t merge_gap) {
 }
 
 Aabb ViewTool::bounds() const {
-  // Capsule axis: orientation applied to +y.
+  // Capsule axis: orientation applied to +x (as sculptd's server sends it).
   const float w = orientation[0], x = orientation[1], y = orientation[2], z = orientation[3];
-  const Vec3f axis{2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)};
+  const Vec3f axis{1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)};
   const float h = shape == ToolShape::capsule ? half_length : 0.0f;
   Aabb b = Aabb::none();
   for (float s : {-1.0f, 1.0f}) {

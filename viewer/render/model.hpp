@@ -107,7 +107,7 @@ struct ViewTool {
   std::uint32_t id = 0;
   ToolShape shape = ToolShape::sphere;
   float radius = 0.02f;
-  float half_length = 0.0f;                    // capsule: along orientation·(0,1,0)
+  float half_length = 0.0f;                    // capsule: along orientation·(1,0,0)
   Vec3f position{0, 0, 0};
   std::array<float, 4> orientation{1, 0, 0, 0};  // w, x, y, z
   bool grabbing = false;

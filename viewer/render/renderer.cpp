@@ -424,12 +424,15 @@ void Renderer::draw(const ViewModel& model, const Camera& camera, int width, int
   // Tools, see-through so the dent under them stays visible; then the arrows.
   if (options.tools && !model.tools.empty()) {
     glEnable(GL_BLEND);
-    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);  // keep the target opaque
     glDepthMask(GL_FALSE);
     for (const auto& t : model.tools) {
       Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
       const Eigen::Quaternionf q(t.orientation[0], t.orientation[1], t.orientation[2], t.orientation[3]);
-      m.block<3, 3>(0, 0) = q.normalized().toRotationMatrix();
+      // The capsule mesh runs along its local y; the protocol's axis is orientation·(+x).
+      Eigen::Matrix3f y_to_x;
+      y_to_x << 0, 1, 0, -1, 0, 0, 0, 0, 1;
+      m.block<3, 3>(0, 0) = q.normalized().toRotationMatrix() * y_to_x;
       m.block<3, 1>(0, 3) = Eigen::Vector3f(t.position[0], t.position[1], t.position[2]);
       const Eigen::Vector4f color = t.grabbing ? Eigen::Vector4f(0.95f, 0.55f, 0.15f, 0.55f)
                                                : Eigen::Vector4f(0.55f, 0.70f, 0.95f, 0.45f);
@@ -442,8 +445,9 @@ void Renderer::draw(const ViewModel& model, const Camera& camera, int width, int
       for (const auto& t : model.tools) {
         const Eigen::Vector3f f(t.force[0], t.force[1], t.force[2]);
         const float n = f.norm();
-        if (!(n > 1e-4f)) continue;
-        const float length = std::min(n * options.arrow_m_per_n, options.arrow_max_m);
+        if (!(n > options.arrow_min_n)) continue;
+        // Starts at the centre and always leaves the tool, then grows with the force.
+        const float length = std::min(t.radius * 1.3f + 0.005f + n * options.arrow_m_per_n, options.arrow_max_m);
         const float head = std::min(length * 0.35f, t.radius * 1.2f + 0.004f);
         const float shaft_r = std::max(head * 0.18f, 0.0015f);
         Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
@@ -512,7 +516,7 @@ void Renderer::draw_overlay(const std::vector<std::string>& lines, int width, in
        (static_cast<float>(lines.size() * font::kLine) + 6.0f) * s}};
   glDisable(GL_DEPTH_TEST);
   glEnable(GL_BLEND);
-  glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);  // keep the target opaque
   const GLuint p = overlay_program_.get();
   glUseProgram(p);
   glUniform2f(glGetUniformLocation(p, "u_viewport"), static_cast<float>(width), static_cast<float>(height));

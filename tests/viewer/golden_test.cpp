@@ -1,0 +1,71 @@
+// Golden images: sculpt-view renders the built-in default scene offline
+// (no daemon, so always the same state) from a fixed camera, with each
+// drawing option, and each image must match tests/data/golden/ within a
+// tolerance (never byte for byte: llvmpipe versions round differently).
+//
+// Regenerate after an intended change of the look:
+//   SCULPT_UPDATE_GOLDEN=1 meson test -C build viewer_golden
+// then look at the new files (git diff shows them changed) and commit them.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "child.hpp"
+#include "image_compare.hpp"
+
+namespace sculpt::viewtest {
+namespace {
+
+struct Case {
+  const char* name;
+  std::vector<std::string> flags;
+};
+
+class Golden : public ::testing::TestWithParam<Case> {};
+
+TEST_P(Golden, MatchesWithinTolerance) {
+  const Case& c = GetParam();
+  const std::string dir = make_temp_dir("golden");
+  const std::string out = dir + "/" + c.name + ".png";
+  std::vector<std::string> argv = {SCULPT_VIEW_BIN, "--scene", "builtin:default", "--headless", "--size", "480x270",
+                                   "--camera", "20,25", "--snapshot", out, "--quiet"};
+  argv.insert(argv.end(), c.flags.begin(), c.flags.end());
+  Child view(argv, dir + "/log.txt");
+  const auto rc = view.wait(60s);
+  ASSERT_TRUE(rc.has_value()) << "sculpt-view did not finish";
+  ASSERT_EQ(*rc, 0) << view.log();
+  const view::Image got = view::read_png(out);
+  const std::string golden = std::string(SCULPT_GOLDEN_DIR) + "/" + c.name + ".png";
+  if (const char* update = std::getenv("SCULPT_UPDATE_GOLDEN"); update != nullptr && *update == '1') {
+    std::filesystem::copy_file(out, golden, std::filesystem::copy_options::overwrite_existing);
+    std::filesystem::remove_all(dir);
+    GTEST_SUCCEED() << "wrote " << golden;
+    return;
+  }
+  ASSERT_TRUE(std::filesystem::exists(golden)) << golden << " is missing (SCULPT_UPDATE_GOLDEN=1 makes it)";
+  const view::Image want = view::read_png(golden);
+  const ImageDiff d = compare(got, want);
+  EXPECT_TRUE(close_enough(d)) << c.name << ": " << describe(d) << " (kept: " << out << ")";
+  EXPECT_GT(content_fraction(got), 0.05) << "nothing drawn in " << out;
+  if (close_enough(d)) std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(DefaultScene, Golden,
+                         ::testing::Values(Case{"default", {}}, Case{"wireframe", {"--wireframe"}},
+                                           Case{"boxes", {"--boxes"}},
+                                           Case{"all_options", {"--wireframe", "--boxes", "--colormap", "--no-overlay"}}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// The options really change the picture (a golden test alone would also pass
+// if a flag were ignored and its golden made without it).
+TEST(GoldenSet, OptionsMakeDifferentImages) {
+  const auto load = [](const char* n) { return view::read_png(std::string(SCULPT_GOLDEN_DIR) + "/" + n + ".png"); };
+  const view::Image plain = load("default");
+  for (const char* other : {"wireframe", "boxes", "all_options"}) {
+    EXPECT_GT(compare(plain, load(other)).bad_fraction, 0.01) << other << " looks like default";
+  }
+}
+
+}  // namespace
+}  // namespace sculpt::viewtest

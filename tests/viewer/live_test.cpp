@@ -1,0 +1,112 @@
+// sculpt-view against a real sculptd (a replayed session, no devices): a
+// clear message when no daemon listens; two viewers of one paused daemon
+// draw the same image, and it shows the sculpt (not the rest shape); a
+// viewer waits for a daemon, and reconnects when it restarts.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "child.hpp"
+#include "image_compare.hpp"
+
+namespace sculpt::viewtest {
+namespace {
+
+const std::string kData = SCULPT_TEST_DATA;
+
+std::vector<std::string> view_args(const std::string& socket, const std::string& out) {
+  // No overlay: it shows the tick and latency, which differ between viewers.
+  return {SCULPT_VIEW_BIN, "--socket", socket, "--headless", "--size", "480x270", "--camera", "20,25",
+          "--colormap", "--no-overlay", "--snapshot", out, "--after-frames", "3", "--after-seconds", "60"};
+}
+
+class Live : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = make_temp_dir("live");
+    socket_ = dir_ + "/sculptd.sock";
+  }
+  void TearDown() override {
+    if (!HasFailure()) std::filesystem::remove_all(dir_);
+  }
+  std::unique_ptr<Child> start_daemon(const std::string& input, const std::string& log_name) {
+    auto d = std::make_unique<Child>(
+        std::vector<std::string>{SCULPTD_BIN, "--socket", socket_, "--input", input},
+        dir_ + "/" + log_name);
+    EXPECT_TRUE(d->wait_for_log("sculptd ready", 60s)) << d->log();
+    return d;
+  }
+  std::string dir_, socket_;
+};
+
+TEST_F(Live, SaysClearlyWhenNoDaemonListens) {
+  Child view({SCULPT_VIEW_BIN, "--socket", socket_, "--snapshot", dir_ + "/x.png"}, dir_ + "/view.txt");
+  const auto rc = view.wait(30s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 1);
+  const std::string log = view.log();
+  EXPECT_NE(log.find("no daemon is listening on " + socket_), std::string::npos) << log;
+  EXPECT_NE(log.find("--wait"), std::string::npos) << log;
+  EXPECT_FALSE(std::filesystem::exists(dir_ + "/x.png"));
+}
+
+TEST_F(Live, TwoViewersOfOnePausedDaemonDrawTheSameSculpt) {
+  auto daemon = start_daemon("replay:" + kData + "/sessions/push.jsonl", "sculptd.txt");
+  // Let the left tool press into the ball, then freeze the state.
+  std::this_thread::sleep_for(5s);
+  Child pause({SCULPTCTL_BIN, "pause", "--socket", socket_}, dir_ + "/pause.txt");
+  ASSERT_EQ(pause.wait(30s).value_or(-1), 0) << pause.log();
+
+  Child a(view_args(socket_, dir_ + "/a.png"), dir_ + "/a.txt");
+  Child b(view_args(socket_, dir_ + "/b.png"), dir_ + "/b.txt");
+  ASSERT_EQ(a.wait(90s).value_or(-1), 0) << a.log();
+  ASSERT_EQ(b.wait(90s).value_or(-1), 0) << b.log();
+  const view::Image ia = view::read_png(dir_ + "/a.png");
+  const view::Image ib = view::read_png(dir_ + "/b.png");
+  const ImageDiff same = compare(ia, ib);
+  EXPECT_TRUE(close_enough(same)) << describe(same);
+  EXPECT_GT(content_fraction(ia), 0.05);
+
+  // The same view of the scene as loaded: the sculpted one must differ (the
+  // colour map shows the dent).
+  Child rest({SCULPT_VIEW_BIN, "--scene", "builtin:default", "--headless", "--size", "480x270", "--camera", "20,25",
+              "--colormap", "--no-overlay", "--snapshot", dir_ + "/rest.png", "--quiet"},
+             dir_ + "/rest.txt");
+  ASSERT_EQ(rest.wait(60s).value_or(-1), 0) << rest.log();
+  const ImageDiff sculpted = compare(ia, view::read_png(dir_ + "/rest.png"), 24);
+  EXPECT_GT(sculpted.bad_fraction, 0.002) << "the live image looks like the rest shape: " << describe(sculpted);
+  daemon->signal(SIGTERM);
+  EXPECT_EQ(daemon->wait(30s).value_or(-1), 0) << daemon->log();
+}
+
+TEST_F(Live, WaitsForTheDaemonAndReconnectsWhenItRestarts) {
+  const std::string frames = dir_ + "/frames";
+  Child view({SCULPT_VIEW_BIN, "--socket", socket_, "--headless", "--wait", "--size", "160x90", "--fps", "10",
+              "--frames-dir", frames, "--after-seconds", "120"},
+             dir_ + "/view.txt");
+  ASSERT_TRUE(view.wait_for_log("no daemon is listening", 30s)) << view.log();
+  {
+    auto first = start_daemon("replay:" + kData + "/sessions/push.jsonl", "first.txt");
+    ASSERT_TRUE(view.wait_for_log("snapshot:", 30s)) << view.log();
+    first->signal(SIGTERM);
+    ASSERT_TRUE(first->wait(30s).has_value());
+  }
+  ASSERT_TRUE(view.wait_for_log("the daemon went away", 30s)) << view.log();
+  const std::size_t before = view.log().find("the daemon went away");
+  auto second = start_daemon("replay:" + kData + "/sessions/push.jsonl", "second.txt");
+  ASSERT_TRUE(view.wait_for_log("connected to " + socket_, 30s)) << view.log();
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (view.log().find("snapshot:", before) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_NE(view.log().find("snapshot:", before), std::string::npos) << view.log();
+  EXPECT_TRUE(view.running()) << view.log();
+  view.signal(SIGTERM);
+  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
+  EXPECT_FALSE(std::filesystem::is_empty(frames));
+  second->signal(SIGTERM);
+  second->wait(30s);
+}
+
+}  // namespace
+}  // namespace sculpt::viewtest

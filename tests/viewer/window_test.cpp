@@ -1,0 +1,83 @@
+// The window mode under Xvfb (a private server on a display number it picks
+// itself): the window opens, a screenshot of the X screen taken from outside
+// (XGetImage on the root window) shows the meshes, the viewer's own
+// screenshot (--snapshot from the window's back buffer) does too, and
+// SIGTERM closes it cleanly.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "child.hpp"
+#include "image_compare.hpp"
+#include "x11_grab.hpp"
+
+namespace sculpt::viewtest {
+namespace {
+
+class WindowMode : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = make_temp_dir("window");
+    // -displayfd: Xvfb picks a free display and writes its number to fd 1.
+    xvfb_ = std::make_unique<Child>(std::vector<std::string>{"Xvfb", "-displayfd", "1", "-screen", "0", "800x600x24",
+                                                             "-nolisten", "tcp"},
+                                    dir_ + "/xvfb.txt");
+    const auto deadline = std::chrono::steady_clock::now() + 30s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      const std::string out = xvfb_->log();
+      const auto nl = out.find('\n');
+      if (nl != std::string::npos && nl > 0 && std::isdigit(static_cast<unsigned char>(out[0]))) {
+        display_ = ":" + out.substr(0, nl);
+        break;
+      }
+      ASSERT_TRUE(xvfb_->running()) << "Xvfb failed: " << out;
+      std::this_thread::sleep_for(20ms);
+    }
+    ASSERT_FALSE(display_.empty()) << "Xvfb gave no display number: " << xvfb_->log();
+  }
+  void TearDown() override {
+    xvfb_.reset();
+    if (!HasFailure()) std::filesystem::remove_all(dir_);
+  }
+
+  view::Image grab_screen() { return grab_root(display_); }
+
+  std::string dir_, display_;
+  std::unique_ptr<Child> xvfb_;
+};
+
+TEST_F(WindowMode, ShowsTheMeshAndClosesOnSigterm) {
+  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10"},
+             dir_ + "/view.txt", {"DISPLAY=" + display_, "WAYLAND_DISPLAY="});
+  ASSERT_TRUE(view.wait_for_log("window on x11", 60s)) << view.log();
+  // A few frames in, the screen shows the meshes.
+  double seen = 0;
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  view::Image screen;
+  while (std::chrono::steady_clock::now() < deadline && seen < 0.01) {
+    std::this_thread::sleep_for(300ms);
+    screen = grab_screen();
+    if (!screen.rgba.empty()) seen = mesh_colour_fraction(screen);
+  }
+  if (!screen.rgba.empty()) view::write_png(dir_ + "/screen.png", screen);
+  EXPECT_GT(seen, 0.01) << "no mesh on the X screen (kept " << dir_ << "/screen.png)";
+  EXPECT_TRUE(view.running()) << view.log();
+  view.signal(SIGTERM);
+  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
+}
+
+TEST_F(WindowMode, SnapshotFromTheWindowShowsTheMesh) {
+  const std::string out = dir_ + "/shot.png";
+  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--snapshot", out,
+              "--after-frames", "5", "--boxes"},
+             dir_ + "/view.txt", {"DISPLAY=" + display_, "WAYLAND_DISPLAY="});
+  ASSERT_EQ(view.wait(60s).value_or(-1), 0) << view.log();
+  EXPECT_NE(view.log().find("window on x11"), std::string::npos) << view.log();
+  const view::Image img = view::read_png(out);
+  EXPECT_EQ(img.width, 640);
+  EXPECT_EQ(img.height, 480);
+  EXPECT_GT(mesh_colour_fraction(img), 0.01);
+}
+
+}  // namespace
+}  // namespace sculpt::viewtest

@@ -1,0 +1,14 @@
+// A screenshot of an X server's root window, taken from outside the viewer
+// (Xlib's macros stay in x11_grab.cpp: they clash with GoogleTest's names).
+#pragma once
+
+#include <string>
+
+#include "gl/png_io.hpp"
+
+namespace sculpt::viewtest {
+
+// Empty image when the display cannot be opened.
+view::Image grab_root(const std::string& display);
+
+}  // namespace sculpt::viewtest
