@@ -1,0 +1,92 @@
+// libFuzzer over the server's message handling: the input is what a client
+// sends on its socket (capnp framing, RPC messages, our methods' params).
+// The server serves it through an in-memory pipe exactly as it serves a
+// socket, with the reader limits sculptd uses; whatever it is, the server
+// must not crash and must let the client go when it hangs up.
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+
+#include <kj/async-io.h>
+
+#include "server/server.hpp"
+#include "sim/shapes.hpp"
+#include "sim/world.hpp"
+
+namespace {
+
+using namespace sculpt;
+
+class FakeControl final : public server::Control {
+ public:
+  server::DaemonStatus status() override {
+    server::DaemonStatus d;
+    d.stats.rate_hz = 1000;
+    d.scene = "fuzz";
+    return d;
+  }
+  std::vector<server::DeviceEntry> devices() override {
+    server::DeviceEntry e;
+    e.name = "pad";
+    e.tools = {0};
+    return {e};
+  }
+  std::string load_scene(const std::string& path) override { return "not here: " + path; }
+  std::string reset() override { return {}; }
+  std::string set_paused(bool) override { return {}; }
+};
+
+struct Fixture {
+  kj::AsyncIoContext io = kj::setupAsyncIo();
+  FakeControl control;
+  sim::World<float> world{sim::SimSettings{}, 1};
+  std::unique_ptr<server::PublishedState> published;
+  std::unique_ptr<server::Server> server;
+
+  Fixture() {
+    world.add_body(sim::make_icosphere(0.05f, 1), sim::Material{});
+    published = std::make_unique<server::PublishedState>(world, 1000.0);
+    server::ServerOptions o;
+    o.pump_period = 1 * kj::MILLISECONDS;
+    server = std::make_unique<server::Server>(io, control, o);
+    server::SceneInfo info;
+    info.scene = "fuzz";
+    info.rate_hz = 1000;
+    info.meshes.resize(1);
+    info.tools.resize(1);
+    server->set_scene(info, *published);
+  }
+};
+
+Fixture& fixture() {
+  static Fixture* f = new Fixture();  // never destroyed: libFuzzer exits without unwinding
+  return *f;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  Fixture& f = fixture();
+  auto pipe = f.io.provider->newTwoWayPipe();
+  f.server->serve(kj::mv(pipe.ends[0]), "fuzz");
+  auto client = kj::mv(pipe.ends[1]);
+  // Drain whatever the server answers, so its writes never wait on us.
+  auto buffer = kj::heapArray<kj::byte>(4096);
+  kj::Function<kj::Promise<void>()> drain;
+  drain = [&]() -> kj::Promise<void> {
+    return client->tryRead(buffer.begin(), 1, buffer.size()).then([&](std::size_t n) -> kj::Promise<void> {
+      if (n == 0) return kj::READY_NOW;
+      return drain();
+    });
+  };
+  auto reading = drain().eagerlyEvaluate([](kj::Exception&&) {});
+  auto writing = client->write(data, size).then([&] { client->shutdownWrite(); }).eagerlyEvaluate([](kj::Exception&&) {});
+  for (int i = 0; i < 200; ++i) f.io.waitScope.poll();
+  // Hang up; the server must let the client go.
+  writing = nullptr;
+  reading = nullptr;
+  client = nullptr;
+  for (int i = 0; i < 200 && f.server->clients() > 0; ++i) f.io.waitScope.poll();
+  if (f.server->clients() != 0) std::abort();
+  return 0;
+}
