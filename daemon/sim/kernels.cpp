@@ -1043,6 +1043,60 @@ bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_li
   return yield_candidates_scalar(a, yield, anchor_limit, springs, begin, end, mask);
 }
 
+// --- narrow phase: outcodes ----------------------------------------------------
+namespace {
+
+template <class S>
+[[gnu::always_inline]] inline std::uint8_t outcode_of(S x, S y, S z, const S* lo, const S* hi) {
+  return static_cast<std::uint8_t>((x < lo[0]) | (x > hi[0]) << 1 | (y < lo[1]) << 2 | (y > hi[1]) << 3 |
+                                   (z < lo[2]) << 4 | (z > hi[2]) << 5);
+}
+
+template <class S>
+void outcodes_scalar(const S* x, const S* y, const S* z, std::uint32_t begin, std::uint32_t end, const S* lo,
+                     const S* hi, std::uint8_t* out) {
+  for (std::uint32_t i = begin; i < end; ++i) out[i] = outcode_of(x[i], y[i], z[i], lo, hi);
+}
+
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+__attribute__((target("avx2"))) void outcodes_avx2(const float* x, const float* y, const float* z,
+                                                   std::uint32_t begin, std::uint32_t end, const float* lo,
+                                                   const float* hi, std::uint8_t* out) {
+  const float* const src[3] = {x, y, z};
+  const std::uint32_t whole = begin + (end - begin) / 8 * 8;
+  for (std::uint32_t i = begin; i < whole; i += 8) {
+    __m256i acc = _mm256_setzero_si256();
+    for (int ax = 0; ax < 3; ++ax) {
+      const __m256 v = _mm256_loadu_ps(src[ax] + i);
+      const __m256 below = _mm256_cmp_ps(v, _mm256_set1_ps(lo[ax]), _CMP_LT_OQ);
+      const __m256 above = _mm256_cmp_ps(v, _mm256_set1_ps(hi[ax]), _CMP_GT_OQ);
+      acc = _mm256_or_si256(acc, _mm256_and_si256(_mm256_castps_si256(below), _mm256_set1_epi32(1 << (2 * ax))));
+      acc = _mm256_or_si256(acc,
+                            _mm256_and_si256(_mm256_castps_si256(above), _mm256_set1_epi32(2 << (2 * ax))));
+    }
+    const __m128i w = _mm_packs_epi32(_mm256_castsi256_si128(acc), _mm256_extracti128_si256(acc, 1));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(out + i), _mm_packus_epi16(w, w));
+  }
+  for (std::uint32_t i = whole; i < end; ++i) out[i] = outcode_of(x[i], y[i], z[i], lo, hi);
+}
+#endif
+
+}  // namespace
+
+void outcodes(const float* x, const float* y, const float* z, std::uint32_t begin, std::uint32_t end,
+              const float* lo, const float* hi, std::uint8_t* out) {
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  const bool avx2 = g_has_avx2;
+  if (avx2 && !g_portable.load(std::memory_order_relaxed)) return outcodes_avx2(x, y, z, begin, end, lo, hi, out);
+#endif
+  outcodes_scalar(x, y, z, begin, end, lo, hi, out);
+}
+
+void outcodes(const double* x, const double* y, const double* z, std::uint32_t begin, std::uint32_t end,
+              const double* lo, const double* hi, std::uint8_t* out) {
+  outcodes_scalar(x, y, z, begin, end, lo, hi, out);
+}
+
 const char* active_clone() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES) && defined(__clang__)
   return "none (clang)";

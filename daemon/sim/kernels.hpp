@@ -110,6 +110,15 @@ bool yield_candidates(const ForceArgs<float>& a, float yield, float anchor_limit
 bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_limit, bool springs,
                       std::uint32_t begin, std::uint32_t end, std::uint8_t* mask);
 
+// Narrow phase: out[i] for i in [begin, end) gets one bit per face of the box
+// [lo, hi] that vertex i lies strictly beyond (x < lo[0]: bit 0, x > hi[0]: 1,
+// y: 2 and 3, z: 4 and 5; NaN: none). Three vertices whose codes share a bit
+// bound a triangle whose box misses [lo, hi].
+void outcodes(const float* x, const float* y, const float* z, std::uint32_t begin, std::uint32_t end,
+              const float* lo, const float* hi, std::uint8_t* out);
+void outcodes(const double* x, const double* y, const double* z, std::uint32_t begin, std::uint32_t end,
+              const double* lo, const double* hi, std::uint8_t* out);
+
 // Testing knob: never take the AVX2 packed path (the portable clones still run).
 void force_portable(bool on);
 // Testing and benchmark knob: run whole blocks of the fused pass as separate

@@ -351,8 +351,7 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
     // Cheap reject: a triangle's box misses the tool box of this sweep exactly
     // when its three vertices lie beyond the same face of that box, i.e. when
     // their outcodes (one bit per face) share a bit. Outcodes are computed a
-    // block at a time (the candidates now, any other block on first use) and
-    // kept current through the pushes below.
+    // block at a time and kept current through the pushes below.
     std::array<S, 3> box_lo, box_hi;
     for (int ax = 0; ax < 3; ++ax) {
       box_lo[ax] = std::min(p0[ax], p1[ax]) - r - step_len;
@@ -372,22 +371,29 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
       std::fill(outcode_stamp_.begin(), outcode_stamp_.end(), 0u);
       outcode_epoch_ = 1;
     }
-    auto code_block = [&](std::uint32_t blk) {
-      for (std::uint32_t i = b.begin_of(blk), e = b.end_of(blk); i < e; ++i) oc[i] = code(i);
+    auto code_block = [&](std::uint32_t blk) {  // the same bits as code(), eight at a time
+      kernel::outcodes(b.x.data(), b.y.data(), b.z.data(), b.begin_of(blk), b.end_of(blk), box_lo.data(),
+                       box_hi.data(), oc);
       outcode_stamp_[blk] = outcode_epoch_;
     };
-    auto outcode = [&](std::uint32_t i) {
-      if (outcode_stamp_[i / kBlock] != outcode_epoch_) code_block(i / kBlock);
-      return oc[i];
+    // A triangle's vertices are its owner's block-mates or spring neighbours:
+    // coding each candidate block and its neighbour blocks covers them all.
+    auto code_once = [&](std::uint32_t blk) {
+      if (outcode_stamp_[blk] != outcode_epoch_) code_block(blk);
     };
-    for (std::uint32_t q = 0; q < tc.candidate_count; ++q) code_block(tc.candidates[q]);
+    for (std::uint32_t q = 0; q < tc.candidate_count; ++q) {
+      const std::uint32_t blk = tc.candidates[q];
+      code_once(blk);
+      for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
+        code_once(b.block_neighbours[e]);
+    }
 
     // Triangles first: a tool smaller than a face touches no vertex, yet must not pass.
     for (std::uint32_t q = 0; q < tc.candidate_count; ++q) {
       const std::uint32_t blk = tc.candidates[q];
       for (std::uint32_t ti = b.triangle_begin[blk]; ti < b.triangle_begin[blk + 1]; ++ti) {
         const Triangle& tri = b.triangles[ti];
-        if (outcode(tri[0]) & outcode(tri[1]) & outcode(tri[2])) continue;
+        if (oc[tri[0]] & oc[tri[1]] & oc[tri[2]]) continue;
         const V3<S> A{b.x[tri[0]], b.y[tri[0]], b.z[tri[0]]};
         const V3<S> B{b.x[tri[1]], b.y[tri[1]], b.z[tri[1]]};
         const V3<S> C{b.x[tri[2]], b.y[tri[2]], b.z[tri[2]]};

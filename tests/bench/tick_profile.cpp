@@ -13,6 +13,8 @@
 #include <time.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -37,6 +39,14 @@ std::uint64_t now_ns() {
   return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
+// This thread's CPU time: a tick's cost without the time other processes took
+// the CPU away (the machine is shared), which wall time includes.
+std::uint64_t cpu_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
 long minor_faults() {
   rusage u;
   getrusage(RUSAGE_THREAD, &u);
@@ -45,7 +55,7 @@ long minor_faults() {
 
 struct TickRecord {
   std::uint64_t tick;
-  double step_us, collision_us;
+  double step_us, cpu_us, collision_us;
   std::uint32_t awake, candidates, contacts, blowups;
   long faults;
 };
@@ -56,8 +66,30 @@ double pct(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
 }
 
+// How fast the awake blocks of each body move on one tick (are they awake for a reason?).
+void print_blocks(const sim::World<float>& world, std::uint64_t tick) {
+  for (std::size_t bi = 0; bi < world.body_count(); ++bi) {
+    const auto& b = world.body(bi);
+    int hist[8] = {};  // max speed: <1e-4, <1e-3, <3e-3, <1e-2, <3e-2, <0.1, <0.3, more (m/s)
+    const double edges[7] = {1e-4, 1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3};
+    std::uint32_t awake = 0;
+    for (const auto& s : b.block) {
+      if (!s.awake) continue;
+      ++awake;
+      const double v = std::sqrt(static_cast<double>(std::bit_cast<float>(s.max_speed2_bits)));
+      int k = 0;
+      while (k < 7 && v >= edges[k]) ++k;
+      ++hist[k];
+    }
+    std::printf("tick %llu body %zu: %u of %u blocks awake; by max speed (m/s) <1e-4 %d <1e-3 %d <3e-3 %d <1e-2 %d "
+                "<3e-2 %d <0.1 %d <0.3 %d more %d\n",
+                static_cast<unsigned long long>(tick), bi, awake, b.blocks, hist[0], hist[1], hist[2], hist[3],
+                hist[4], hist[5], hist[6], hist[7]);
+  }
+}
+
 int usage() {
-  std::fprintf(stderr, "usage: tick_profile --scene FILE --session FILE [--ticks N] [--csv FILE] [--top N]\n");
+  std::fprintf(stderr, "usage: tick_profile --scene FILE --session FILE [--ticks N] [--csv FILE] [--top N] [--blocks-at TICK]\n");
   return 2;
 }
 
@@ -67,6 +99,7 @@ int main(int argc, char** argv) {
   std::string scene_file, session_file, csv;
   std::uint64_t ticks = 30000;
   int top = 15;
+  std::uint64_t blocks_at = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage();
@@ -75,6 +108,7 @@ int main(int argc, char** argv) {
     else if (a == "--ticks") ticks = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--csv") csv = argv[++i];
     else if (a == "--top") top = std::atoi(argv[++i]);
+    else if (a == "--blocks-at") blocks_at = std::strtoull(argv[++i], nullptr, 10);
     else return usage();
   }
   if (scene_file.empty() || session_file.empty()) return usage();
@@ -133,37 +167,44 @@ int main(int argc, char** argv) {
     mapper.drain(ring, tick);  // what sculptd's input stage does
     driver.update_from(mapper.controls(), std::span<sim::Tool>(tools));
     const long f0 = minor_faults();
-    const std::uint64_t t0 = now_ns();
+    const std::uint64_t c0 = cpu_ns(), t0 = now_ns();
     world.step(tools);
-    const std::uint64_t t1 = now_ns();
+    const std::uint64_t t1 = now_ns(), c1 = cpu_ns();
     const long f1 = minor_faults();
     const sim::TickStats& st = world.stats();
-    rec.push_back({tick, (t1 - t0) * 1e-3, world.collision_ns() * 1e-3, st.awake_vertices, st.candidate_blocks,
+    if (tick == blocks_at) print_blocks(world, tick);
+    rec.push_back({tick, (t1 - t0) * 1e-3, (c1 - c0) * 1e-3, world.collision_ns() * 1e-3, st.awake_vertices, st.candidate_blocks,
                    st.contacts, st.blowups, f1 - f0});
   }
 
-  std::vector<double> step, coll, awake;
-  for (const auto& r : rec) step.push_back(r.step_us), coll.push_back(r.collision_us), awake.push_back(r.awake);
+  std::vector<double> step, cpu, coll, awake;
+  for (const auto& r : rec)
+    step.push_back(r.step_us), cpu.push_back(r.cpu_us), coll.push_back(r.collision_us), awake.push_back(r.awake);
   std::printf("# %s, %s: %llu ticks; substeps per body:", scene_file.c_str(), session_file.c_str(),
               static_cast<unsigned long long>(ticks));
   for (std::size_t b = 0; b < world.body_count(); ++b) std::printf(" %d (%u vertices)", substeps[b], world.body(b).n);
   std::printf("\nstep us      p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(step, 0.5), pct(step, 0.9),
               pct(step, 0.99), pct(step, 0.999), pct(step, 1.0));
+  std::printf("step cpu us  p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(cpu, 0.5), pct(cpu, 0.9),
+              pct(cpu, 0.99), pct(cpu, 0.999), pct(cpu, 1.0));
   std::printf("collision us p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(coll, 0.5), pct(coll, 0.9),
               pct(coll, 0.99), pct(coll, 0.999), pct(coll, 1.0));
   std::printf("awake verts  p50 %.0f p90 %.0f p99 %.0f max %.0f\n", pct(awake, 0.5), pct(awake, 0.9),
               pct(awake, 0.99), pct(awake, 1.0));
   long faults = 0;
   std::uint64_t over = 0, blowups = 0;
-  for (const auto& r : rec) faults += r.faults, over += r.step_us > 1000.0, blowups += r.blowups;
-  std::printf("page faults during steps: %ld; steps over 1 ms: %llu; blowups %llu; final hash %016llx\n", faults,
-              static_cast<unsigned long long>(over), static_cast<unsigned long long>(blowups), static_cast<unsigned long long>(world.hash()));
+  std::uint64_t cpu_over = 0;
+  for (const auto& r : rec)
+    faults += r.faults, over += r.step_us > 1000.0, cpu_over += r.cpu_us > 1000.0, blowups += r.blowups;
+  std::printf("page faults during steps: %ld; steps over 1 ms: %llu (cpu time: %llu); blowups %llu; final hash %016llx\n", faults,
+              static_cast<unsigned long long>(over), static_cast<unsigned long long>(cpu_over),
+              static_cast<unsigned long long>(blowups), static_cast<unsigned long long>(world.hash()));
   std::vector<TickRecord> slow = rec;
-  std::sort(slow.begin(), slow.end(), [](const TickRecord& a, const TickRecord& b) { return a.step_us > b.step_us; });
-  std::printf("slowest ticks: tick step_us collision_us awake candidates contacts blowups faults\n");
+  std::sort(slow.begin(), slow.end(), [](const TickRecord& a, const TickRecord& b) { return a.cpu_us > b.cpu_us; });
+  std::printf("costliest ticks (cpu time): tick step_us cpu_us collision_us awake candidates contacts blowups faults\n");
   for (int i = 0; i < top && i < static_cast<int>(slow.size()); ++i)
-    std::printf("  %llu %.1f %.1f %u %u %u %u %ld\n", static_cast<unsigned long long>(slow[i].tick), slow[i].step_us,
-                slow[i].collision_us, slow[i].awake, slow[i].candidates, slow[i].contacts, slow[i].blowups,
+    std::printf("  %llu %.1f %.1f %.1f %u %u %u %u %ld\n", static_cast<unsigned long long>(slow[i].tick),
+                slow[i].step_us, slow[i].cpu_us, slow[i].collision_us, slow[i].awake, slow[i].candidates, slow[i].contacts, slow[i].blowups,
                 slow[i].faults);
   if (!csv.empty()) {
     FILE* f = std::fopen(csv.c_str(), "w");
@@ -171,10 +212,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "tick_profile: cannot write %s: %s\n", csv.c_str(), std::strerror(errno));
       return 1;
     }
-    std::fprintf(f, "tick,step_us,collision_us,awake,candidates,contacts,blowups,faults\n");
+    std::fprintf(f, "tick,step_us,cpu_us,collision_us,awake,candidates,contacts,blowups,faults\n");
     for (const auto& r : rec)
-      std::fprintf(f, "%llu,%.2f,%.2f,%u,%u,%u,%u,%ld\n", static_cast<unsigned long long>(r.tick), r.step_us,
-                   r.collision_us, r.awake, r.candidates, r.contacts, r.blowups, r.faults);
+      std::fprintf(f, "%llu,%.2f,%.2f,%.2f,%u,%u,%u,%u,%ld\n", static_cast<unsigned long long>(r.tick), r.step_us,
+                   r.cpu_us, r.collision_us, r.awake, r.candidates, r.contacts, r.blowups, r.faults);
     std::fclose(f);
   }
   return 0;
