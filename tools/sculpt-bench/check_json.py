@@ -1,11 +1,33 @@
 #!/usr/bin/env python3
-"""Run `sculpt-bench throughput` on a tiny mesh and check its JSON line has the
-fields issue 3 asks for (behaviour only: no timing is judged)."""
+"""Run every `sculpt-bench` subcommand on tiny inputs and check its JSON lines
+carry the fields issues 3 and 8 ask for, that --out writes CSV (and PNG when
+gnuplot is installed), and that bad input fails with a message naming it.
+Behaviour only: no timing is judged."""
 import json
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 bench = sys.argv[1]
+
+
+def run(args, **kw):
+    return subprocess.run([bench, *args], check=True, capture_output=True, text=True, **kw).stdout
+
+
+def lines(out):
+    return [json.loads(l) for l in out.splitlines() if l.strip()]
+
+
+def finite(d, keys, what):
+    for k in keys:
+        assert k in d, f"{what}: missing {k}"
+        assert d[k] is not None and (not isinstance(d[k], float) or d[k] == d[k]), f"{what}: bad {k}: {d[k]}"
+
+
+# --- throughput (issue 3) --------------------------------------------------------
 cases = [
     ["--mesh", "builtin:icosphere:2"],
     ["--mesh", "builtin:torus:0.1:0.03:24:12", "--model", "linear", "--precision", "double", "--tool", "none"],
@@ -14,14 +36,11 @@ cases = [
 ]
 required = ["vertices", "springs", "steps", "substeps", "ns_per_vertex_step", "ms_per_step"]
 for args in cases:
-    out = subprocess.run([bench, "throughput", *args, "--steps", "5", "--repeats", "1", "--json"],
-                         check=True, capture_output=True, text=True).stdout
-    lines = [l for l in out.splitlines() if l.strip()]
-    assert len(lines) == 1, f"{args}: expected one JSON line, got {len(lines)}"
-    d = json.loads(lines[0])
-    for k in required:
-        assert k in d, f"{args}: missing {k}"
-        assert d[k] is not None and (not isinstance(d[k], float) or d[k] == d[k]), f"{args}: bad {k}"
+    out = run(["throughput", *args, "--steps", "5", "--repeats", "1", "--json"])
+    rows = lines(out)
+    assert len(rows) == 1, f"{args}: expected one JSON line, got {len(rows)}"
+    d = rows[0]
+    finite(d, required, args)
     if "--impl" not in args:
         for k in ["baseline", "speedup_vs_baseline", "idle", "sculpting_with_sleep", "peak_memory_bytes",
                   "peak_memory_bytes_per_vertex", "bytes_per_vertex"]:
@@ -30,4 +49,61 @@ for args in cases:
 
 bad = subprocess.run([bench, "throughput", "--mesh", "builtin:nothing"], capture_output=True, text=True)
 assert bad.returncode != 0 and "builtin:nothing" in bad.stderr, "a bad --mesh must fail with a message naming it"
+
+# --- accuracy (issue 8): the documented command works alone, one line per case ---
+rows = lines(run(["accuracy", "--problem", "chain", "--integrator", "verlet", "--json", "--quiet"]))
+assert len(rows) >= 8, f"accuracy: expected a default sweep, got {len(rows)} lines"
+for d in rows:
+    finite(d, ["problem", "integrator", "precision", "dt", "substeps", "seconds", "error_max", "error_rms",
+               "energy_error", "spring_passes"], "accuracy chain verlet")
+    assert d["problem"] == "chain" and d["integrator"] == "verlet"
+assert {d["precision"] for d in rows} == {"float", "double"}
+rows = lines(run(["accuracy", "--problem", "oscillator,mesh", "--integrator", "implicit_euler,xpbd",
+                  "--precision", "double", "--dt", "0.004,0.002", "--substeps", "2", "--json", "--quiet"]))
+assert len(rows) == 8, f"accuracy: 2 problems x 2 integrators x 2 dt, got {len(rows)}"
+for d in rows:
+    assert d["substeps"] == 2 and d["precision"] == "double"
+    assert "error_max" in d and "seconds" in d
+for args, word in [(["--problem", "pendulum"], "pendulum"), (["--integrator", "rk5"], "rk5"),
+                   (["--dt", "0.1,x"], "--dt")]:
+    bad = subprocess.run([bench, "accuracy", *args, "--quiet"], capture_output=True, text=True)
+    assert bad.returncode != 0 and word in bad.stderr, f"accuracy {args}: must fail naming {word}: {bad.stderr}"
+
+# --- stability -------------------------------------------------------------------
+rows = lines(run(["stability", "--mesh", "builtin:icosphere:1", "--material", "rubber", "--scene", "none",
+                  "--ticks", "300", "--json", "--quiet"]))
+assert len(rows) == 2, f"stability: damped and undamped, got {len(rows)}"
+for d in rows:
+    finite(d, ["mesh", "material", "damping", "dt_critical_measured", "dt_bound_gershgorin", "dt_power_iteration"],
+           "stability")
+    # The Gershgorin bound never promises more than the measured limit.
+    assert d["dt_bound_gershgorin"] <= d["dt_critical_measured"] * 1.01, d
+rows = lines(run(["stability", "--mesh", "none", "--scene", "builtin:default", "--ticks", "300", "--json", "--quiet"]))
+assert len(rows) == 3, f"stability: the default scene has 3 meshes, got {len(rows)}"
+for d in rows:
+    finite(d, ["scene", "mesh", "substeps", "substep_dt", "dt_critical_measured", "margin", "margin_ok"], "scenes")
+bad = subprocess.run([bench, "stability", "--material", "steel", "--scene", "none", "--mesh", "builtin:icosphere:1"],
+                     capture_output=True, text=True)
+assert bad.returncode != 0 and "steel" in bad.stderr
+
+# --- skip ------------------------------------------------------------------------
+rows = lines(run(["skip", "--ticks", "200", "--tolerance", "1e-4", "--sleep-speed", "1e-4", "--json", "--quiet"]))
+assert len(rows) == 1, f"skip: one default case, got {len(rows)}"
+finite(rows[0], ["scene", "ms_per_tick_all", "ms_per_tick_skipping", "bytes_idle", "bytes_active"], "skip")
+assert rows[0]["bytes_active"] > rows[0]["bytes_idle"] > 0
+
+# --- --out: CSV always, PNG through gnuplot ---------------------------------------
+with tempfile.TemporaryDirectory() as tmp:
+    args = ["accuracy", "--problem", "oscillator", "--integrator", "verlet", "--precision", "double",
+            "--dt", "0.01,0.005", "--out", tmp, "--quiet"]
+    done = subprocess.run([bench, *args], capture_output=True, text=True)
+    assert os.path.exists(os.path.join(tmp, "accuracy.csv")), done.stderr
+    with open(os.path.join(tmp, "accuracy.csv")) as f:
+        assert f.readline().startswith("problem,integrator,precision"), "CSV header"
+        assert len(f.readlines()) == 2
+    if shutil.which("gnuplot"):
+        assert done.returncode == 0, done.stderr
+        assert os.path.getsize(os.path.join(tmp, "accuracy_oscillator.png")) > 1000
+    else:
+        assert done.returncode != 0 and "gnuplot" in done.stderr, "without gnuplot: a clear error"
 print("ok")
