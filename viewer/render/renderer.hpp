@@ -25,8 +25,8 @@ struct RenderOptions {
   bool arrows = true;
   bool overlay = true;
   float colormap_range_m = 0.02f;   // displacement drawn fully red
-  float arrow_m_per_n = 0.08f;      // arrow length per newton of contact force (sculpting forces are 0.02-1 N)
-  float arrow_max_m = 0.15f;
+  float arrow_m_per_n = 0.05f;      // arrow length per newton of contact force (sculpting forces are 0.02-1 N)
+  float arrow_max_m = 0.08f;
   float arrow_min_n = 0.02f;        // no arrow below (haptics' dead band)
 };
 
