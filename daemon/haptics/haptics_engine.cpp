@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <string>
 #include <utility>
 
 namespace sculpt::haptics {
@@ -9,6 +10,14 @@ namespace sculpt::haptics {
 namespace {
 constexpr int kWarning = 4;  // syslog / sd-daemon priorities
 constexpr int kInfo = 6;
+
+// An ENODEV that no unplug follows is not an unplug: uinput answers ENODEV
+// to an upload in the moment between a new device's node appearing and the
+// device being marked created, and a transport may blip. The input layer
+// sends a detach within milliseconds of a real unplug, so a device still
+// attached after this long is reopened (a few times, backing off).
+constexpr auto kReopenAfter = std::chrono::milliseconds(250);
+constexpr int kMaxReopens = 5;
 }  // namespace
 
 HapticsEngine::HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
@@ -55,7 +64,8 @@ void HapticsEngine::open_ff(Attached& d) {
 void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools) {
   if (devices_.count(slot)) detach_alive(slot);
   const auto interval = std::chrono::duration_cast<std::chrono::nanoseconds>(settings_.min_upload_interval);
-  Attached d{node, std::move(tools), nullptr, ConstantPacer(interval, settings_.change), KickPacer(interval), {}, false};
+  Attached d{node, std::move(tools), nullptr, ConstantPacer(interval, settings_.change), KickPacer(interval), {}, false,
+             std::nullopt, 0};
   d.onsets_seen.assign(d.tools.size(), 0);
   open_ff(d);
   devices_.emplace(slot, std::move(d));
@@ -108,8 +118,26 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
 }
 
 void HapticsEngine::poll(Clock::time_point now) {
-  for (auto& [slot, d] : devices_)
+  for (auto& [slot, d] : devices_) {
+    if (!d.ff) continue;
+    if (d.ff->gone()) reopen_if_still_plugged(d, now);
     if (d.ff && !d.ff->gone()) poll_device(d, now);
+  }
+}
+
+void HapticsEngine::reopen_if_still_plugged(Attached& d, Clock::time_point now) {
+  if (!d.gone_since) {
+    d.gone_since = now;
+    return;
+  }
+  if (d.reopens >= kMaxReopens || now - *d.gone_since < kReopenAfter * (1 << d.reopens)) return;
+  ++d.reopens;
+  say(kInfo, d.node + ": the device answered ENODEV but is still plugged in: reopening it (attempt " +
+                 std::to_string(d.reopens) + ")");
+  stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
+  open_ff(d);  // the old FfDevice forgets its ids: the kernel dropped them with the fd
+  d.constant.reset();
+  d.gone_since.reset();
 }
 
 void HapticsEngine::poll_device(Attached& d, Clock::time_point now) {

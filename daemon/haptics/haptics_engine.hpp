@@ -8,6 +8,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -84,11 +85,16 @@ class HapticsEngine {
     KickPacer kick;
     std::vector<std::uint64_t> onsets_seen;  // per tool: the board's onset counter at the last poll
     bool primed = false;                     // onsets before the first poll give no kick
+    // ENODEV while the input layer still has the device plugged in: when it
+    // was first seen, and how many times the node was reopened since attach.
+    std::optional<Clock::time_point> gone_since;
+    int reopens = 0;
   };
   void open_ff(Attached& d);
   void detach_alive(int slot);
   void say(int priority, const std::string& message) const;
   void poll_device(Attached& d, Clock::time_point now);
+  void reopen_if_still_plugged(Attached& d, Clock::time_point now);
 
   const FeedbackBoard& board_;
   HapticsSettings settings_;

@@ -236,6 +236,45 @@ TEST_F(Engine, UnplugSeenByAnIoctlFirstStopsTraffic) {
   EXPECT_EQ(stats.ff.live_effects.load(), 0);
 }
 
+TEST_F(Engine, EnodevWithoutAnUnplugReopensTheDevice) {
+  // uinput answers ENODEV in the moment between a new node appearing and the
+  // device being marked created; no detach follows, so the engine reopens.
+  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  pad->upload_errors = {ENODEV};
+  board.publish(0, push(1.0, 0));
+  engine().poll(t0);
+  ASSERT_EQ(pad->of(Call::upload).size(), 1u);
+  EXPECT_EQ(pad->of(Call::upload)[0].result, ENODEV);
+  engine().poll(t0 + 100ms);
+  engine().poll(t0 + 300ms);  // < 250 ms since ENODEV was first seen at 100 ms
+  EXPECT_EQ(opens["/dev/input/event1"], 1);
+  EXPECT_EQ(pad->of(Call::upload).size(), 1u);
+  engine().poll(t0 + 360ms);
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  const auto ups = constant_uploads(*pad);
+  ASSERT_EQ(ups.size(), 2u);
+  EXPECT_EQ(ups[1].effect.id, -1);
+  EXPECT_EQ(ups[1].result, 0);
+  EXPECT_EQ(stats.ff_devices.load(), 1);
+  EXPECT_EQ(stats.ff.live_effects.load(), 1);
+}
+
+TEST_F(Engine, AReallyDeadNodeIsReopenedOnlyAFewTimes) {
+  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  pad->unplugged = true;
+  for (int i = 0; i < 400; ++i) {
+    board.publish(0, push(i % 2 ? 1.0 : -1.0, 0));
+    engine().poll(t0 + std::chrono::milliseconds(100 * i));
+  }
+  EXPECT_LE(opens["/dev/input/event1"], 1 + 5);
+  EXPECT_GE(opens["/dev/input/event1"], 2);
+  engine().detach(0);
+  EXPECT_EQ(stats.ff_devices.load(), 0);
+  EXPECT_EQ(stats.ff.live_effects.load(), 0);
+}
+
 TEST_F(Engine, TwoToolsOnOnePadAddUpInItsPlane) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}, {1, kPlane}});
