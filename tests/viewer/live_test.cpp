@@ -6,6 +6,8 @@
 
 #include <filesystem>
 
+#include <nlohmann/json.hpp>
+
 #include "child.hpp"
 #include "image_compare.hpp"
 
@@ -52,8 +54,18 @@ TEST_F(Live, SaysClearlyWhenNoDaemonListens) {
 
 TEST_F(Live, TwoViewersOfOnePausedDaemonDrawTheSameSculpt) {
   auto daemon = start_daemon("replay:" + kData + "/sessions/push.jsonl", "sculptd.txt");
-  // Let the left tool press into the ball, then freeze the state.
-  std::this_thread::sleep_for(5s);
+  // Let the left tool press into the ball (5 s of simulated time, however
+  // slow a sanitized daemon runs), then freeze the state.
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  std::uint64_t ticks = 0;
+  while (ticks < 5000 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(250ms);
+    Child status({SCULPTCTL_BIN, "status", "--json", "--socket", socket_}, dir_ + "/status.json");
+    if (status.wait(30s).value_or(-1) != 0) continue;
+    const auto j = nlohmann::json::parse(read_text(dir_ + "/status.json"), nullptr, false);
+    if (j.is_object() && j.contains("ticks")) ticks = j["ticks"].get<std::uint64_t>();
+  }
+  ASSERT_GE(ticks, 5000u) << daemon->log();
   Child pause({SCULPTCTL_BIN, "pause", "--socket", socket_}, dir_ + "/pause.txt");
   ASSERT_EQ(pause.wait(30s).value_or(-1), 0) << pause.log();
 
