@@ -120,8 +120,8 @@ void Report::plot(const std::string& png, const std::string& script) const {
   {
     std::ofstream f(gp);
     f << "# Made by sculpt-bench " << name_ << " --out " << o_.out << "; run from that directory.\n"
-      << "set terminal pngcairo size 1000,700 noenhanced font ',10'\nset output '" << png << "'\nset datafile separator ','\n"
-      << "set key outside right\nset grid\n"
+      << "set terminal pngcairo size 1300,750 noenhanced font ',10'\nset output '" << png << "'\nset datafile separator ','\n"
+      << "set key outside right\nset key autotitle columnhead\nset grid\n"
       << script;
     if (!f) throw std::runtime_error("cannot write " + gp.string());
   }

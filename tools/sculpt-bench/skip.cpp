@@ -216,17 +216,17 @@ int skip(const SkipOptions& o) {
     report.write_csv();
     report.plot("skip.png",
                 "set multiplot layout 1,3 title 'skip: " + o.scene + " (a tool sculpting one mesh)'\n"
-                "set style data linespoints\nset logscale x\nset format x '%g'\n"
+                "set key inside top right\nset logscale x\nset format x '%g'\n"
                 "set title 'bytes per frame (" + std::to_string(int(o.fps)) + " fps) vs delta tolerance'\n"
                 "set xlabel 'tolerance (m)'\nset ylabel 'bytes per frame'\nset logscale y\n"
-                "plot 'skip.csv' using (strcol(2) ne 'sleep_speed' ? $4 : NaN):11 pt 7 title 'active', "
-                "'' using (strcol(2) ne 'sleep_speed' ? $4 : NaN):12 pt 6 title 'idle (keep-alive)'\n"
+                "plot 'skip.csv' using (strcol(2) ne 'sleep_speed' ? $4 : NaN):11 smooth unique with linespoints pt 7 title 'active', "
+                "'' using (strcol(2) ne 'sleep_speed' ? $4 : NaN):12 smooth unique with linespoints pt 6 title 'idle (keep-alive)'\n"
                 "set title 'ms per tick vs sleep speed'\nset xlabel 'sleep_speed (m/s)'\nset ylabel 'ms per tick'\n"
-                "plot 'skip.csv' using (strcol(2) ne 'tolerance' ? $3 : NaN):5 pt 7 title 'all awake', "
-                "'' using (strcol(2) ne 'tolerance' ? $3 : NaN):6 pt 5 title 'skipping (sculpting)', "
-                "'' using (strcol(2) ne 'tolerance' ? $3 : NaN):7 pt 6 title 'idle'\n"
+                "plot 'skip.csv' using (strcol(2) ne 'tolerance' ? $3 : NaN):5 smooth unique with linespoints pt 7 title 'all awake', "
+                "'' using (strcol(2) ne 'tolerance' ? $3 : NaN):6 smooth unique with linespoints pt 5 title 'skipping (sculpting)', "
+                "'' using (strcol(2) ne 'tolerance' ? $3 : NaN):7 smooth unique with linespoints pt 6 title 'idle'\n"
                 "set title 'what sleeping freezes'\nset ylabel 'max distance from never-sleeping run (m)'\n"
-                "plot 'skip.csv' using (strcol(2) ne 'tolerance' ? $3 : NaN):18 pt 7 title 'rest error'\n"
+                "plot 'skip.csv' using (strcol(2) ne 'tolerance' ? $3 : NaN):18 smooth unique with linespoints pt 7 title 'rest error'\n"
                 "unset multiplot\n");
   }
   return 0;
