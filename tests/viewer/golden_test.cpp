@@ -67,5 +67,36 @@ TEST(GoldenSet, OptionsMakeDifferentImages) {
   }
 }
 
+// Bad input: a clear message naming what was wrong, and no crash.
+TEST(Cli, ErrorsNameWhatWasWrong) {
+  const std::string dir = make_temp_dir("cli");
+  const auto run = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), SCULPT_VIEW_BIN);
+    Child c(args, dir + "/log.txt");
+    const int rc = c.wait(60s).value_or(-1);
+    return std::pair{rc, c.log()};
+  };
+  auto [rc, log] = run({"--scene", dir + "/missing.toml", "--snapshot", dir + "/x.png"});
+  EXPECT_EQ(rc, 1);
+  EXPECT_NE(log.find("missing.toml"), std::string::npos) << log;
+  std::tie(rc, log) = run({"--scene", std::string(SCULPT_TEST_DATA) + "/scenes/bad/bad_mesh_file.toml", "--snapshot",
+                           dir + "/x.png"});
+  EXPECT_EQ(rc, 1);
+  EXPECT_NE(log.find("bad_mesh_file.toml:2"), std::string::npos) << log;
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--size", "640by480"});
+  EXPECT_EQ(rc, 2);
+  EXPECT_NE(log.find("--size '640by480'"), std::string::npos) << log;
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--snapshot", dir + "/no/such/dir/x.png", "--quiet"});
+  EXPECT_EQ(rc, 1);
+  EXPECT_NE(log.find("no/such/dir/x.png"), std::string::npos) << log;
+  std::tie(rc, log) = run({"--frobnicate"});
+  EXPECT_EQ(rc, 2);
+  EXPECT_NE(log.find("--frobnicate"), std::string::npos) << log;
+  std::tie(rc, log) = run({"--help"});
+  EXPECT_EQ(rc, 0);
+  EXPECT_NE(log.find("--snapshot"), std::string::npos) << log;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace sculpt::viewtest

@@ -105,7 +105,7 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
     if (o.headless && o.window) throw std::invalid_argument("--headless and --window exclude each other");
     if (!o.scene.empty() && !o.socket.empty()) throw std::invalid_argument("--scene (offline) and --socket exclude each other");
   } catch (const CLI::ParseError& e) {
-    exit_code = app.exit(e);
+    exit_code = app.exit(e) == 0 ? 0 : 2;   // --help/--version: 0; usage errors: 2
     return std::nullopt;
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "sculpt-view: {}\n", e.what());
