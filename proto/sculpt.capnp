@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 0;
+const protocolMinor :UInt16 = 1;   # 1: Stats.jitterHistogram
 
 struct Vec3 {
   x @0 :Float32;
@@ -142,6 +142,16 @@ struct Stats {
   uptimeS @13 :Float64;
   scene @14 :Text;
   simTimeNs @15 :UInt64;
+  # (minor 1) The sim loop's wake-up lateness since it started, bucket by
+  # bucket (only non-empty buckets): two reads diffed give the jitter of what
+  # happened in between (the streaming benchmark compares windows with it).
+  jitterHistogram @16 :List(HistogramBucket);
+}
+
+struct HistogramBucket {
+  lowerNs @0 :UInt64;              # values in [lowerNs, upperNs)
+  upperNs @1 :UInt64;
+  count @2 :UInt64;
 }
 
 enum FfSupport {

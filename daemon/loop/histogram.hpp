@@ -53,6 +53,10 @@ class LatencyHistogram {
     return static_cast<double>(max_ns());
   }
 
+  // Records in bucket i (a reader diffing two moments gets the histogram of
+  // what happened in between: the streaming benchmark does).
+  std::uint64_t bucket(std::size_t i) const { return buckets_[i].load(std::memory_order_relaxed); }
+
   // Bucket arithmetic, public for the tests.
   static std::size_t index(std::uint64_t ns) {
     if (ns < static_cast<std::uint64_t>(kSub)) return static_cast<std::size_t>(ns);

@@ -458,6 +458,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   server::DaemonStatus status() override {
     server::DaemonStatus d;
     d.stats = loop::snapshot(sim_->stats(), rate_);
+    const loop::LatencyHistogram& j = sim_->stats().jitter;
+    for (std::size_t i = 0; i < loop::LatencyHistogram::kBuckets; ++i)
+      if (const std::uint64_t n = j.bucket(i))
+        d.jitter.push_back({loop::LatencyHistogram::lower_bound(i), loop::LatencyHistogram::upper_bound(i), n});
     d.stats.devices = device_count();
     d.stats.ff_uploads = haptics_ ? haptics_->stats().ff.uploads.load() : 0;
     d.paused = sim_->paused();

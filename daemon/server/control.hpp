@@ -34,8 +34,13 @@ struct SceneInfo {
   std::vector<ToolInfo> tools;
 };
 
+struct HistogramBucket {
+  std::uint64_t lower_ns = 0, upper_ns = 0, count = 0;
+};
+
 struct DaemonStatus {
   loop::StatsSnapshot stats;              // viewers and bytes_sent are filled in by the server
+  std::vector<HistogramBucket> jitter;    // non-empty buckets of the loop's jitter histogram
   bool paused = false;
   double uptime_s = 0;
   std::string scene;

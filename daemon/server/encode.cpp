@@ -129,6 +129,12 @@ void fill_stats(proto::Stats::Builder out, const DaemonStatus& d) {
   out.setUptimeS(d.uptime_s);
   out.setScene(d.scene);
   out.setSimTimeNs(d.sim_time_ns);
+  auto h = out.initJitterHistogram(static_cast<unsigned>(d.jitter.size()));
+  for (unsigned i = 0; i < h.size(); ++i) {
+    h[i].setLowerNs(d.jitter[i].lower_ns);
+    h[i].setUpperNs(d.jitter[i].upper_ns);
+    h[i].setCount(d.jitter[i].count);
+  }
 }
 
 void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const DeviceEntry> devices) {

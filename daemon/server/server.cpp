@@ -197,6 +197,9 @@ void Server::close() {
 void Server::set_scene(SceneInfo info, const PublishedState& state) {
   scene_ = std::move(info);
   reader_ = std::make_unique<PublishedReader>(state);
+  std::uint64_t bytes = 4096;
+  for (const auto& m : scene_.meshes) bytes += m.rest.size() * 8 + m.triangles.size() * 4 + m.name.size() + 256;
+  receive_limit_words_ = std::max<std::uint64_t>(options_.traversal_limit_words, bytes / 8 * 2);
   scratch_.assign(reader_->body_count(), {});
   for (auto& [id, s] : streams_) s->needs_snapshot = true;
 }
@@ -246,7 +249,7 @@ void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
   c->peer = std::move(peer);
   c->stream = kj::mv(stream);
   capnp::ReaderOptions limits;
-  limits.traversalLimitInWords = options_.traversal_limit_words;
+  limits.traversalLimitInWords = std::max(options_.traversal_limit_words, receive_limit_words_);
   limits.nestingLimit = options_.nesting_limit;
   c->network = kj::heap<capnp::TwoPartyVatNetwork>(*c->stream, capnp::rpc::twoparty::Side::SERVER, limits);
   c->rpc = kj::heap<capnp::RpcSystem<capnp::rpc::twoparty::VatId>>(
@@ -382,7 +385,7 @@ void Server::send_snapshot(Stream& s) {
                           if (auto it = streams_.find(id); it != streams_.end()) {
                             it->second->dead = true;
                             if (options_.log)
-                              options_.log(6, fmt::format("viewer {}: {}", id, e.getDescription().cStr()));
+                              options_.log(4, fmt::format("viewer {} ended: {}", id, e.getDescription().cStr()));
                           }
                         })
                   .eagerlyEvaluate(nullptr);
@@ -446,6 +449,7 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
   fill_tools(f.initTools(static_cast<unsigned>(std::min<std::size_t>(h.tool_count, scene_.tools.size()))), scene_, h);
   if (now - s.last_stats_ns >= options_.stats_every_ns) {
     DaemonStatus d = control_.status();
+    d.jitter.clear();  // the overlay needs the quantiles, not the histogram
     d.stats.viewers = streams_.size();
     d.stats.bytes_sent = counters_.bytes_sent;
     server::fill_stats(f.initStats(), d);
@@ -468,7 +472,7 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
                           if (auto it = streams_.find(id); it != streams_.end()) {
                             it->second->dead = true;
                             if (options_.log)
-                              options_.log(6, fmt::format("viewer {}: {}", id, e.getDescription().cStr()));
+                              options_.log(4, fmt::format("viewer {} ended: {}", id, e.getDescription().cStr()));
                           }
                         })
                   .eagerlyEvaluate(nullptr);

@@ -31,14 +31,17 @@ namespace sculpt::server {
 
 struct ServerOptions {
   std::string name = "sculptd";
-  std::size_t max_clients = 256;             // more are refused (closed at once)
+  std::size_t max_clients = 64;              // more are refused (closed at once)
   kj::Duration pump_period = 2 * kj::MILLISECONDS;
   std::int64_t keepalive_ns = 1'000'000'000; // an idle viewer gets an empty frame this often
   std::int64_t stats_every_ns = 1'000'000'000;
   float default_fps = 60;
   // Limits on every incoming message: a client cannot make the daemon
-  // allocate or recurse much (requests are small).
-  std::uint64_t traversal_limit_words = 64 * 1024;   // 512 KiB
+  // allocate or recurse much. Cap'n Proto RPC also refuses to SEND a message
+  // larger than its own receive limit, so the size limit is the larger of
+  // this and twice the loaded scene's snapshot (fixed per connection when it
+  // is accepted; a later, bigger scene needs viewers to reconnect only past it).
+  std::uint64_t traversal_limit_words = 8 * 1024 * 1024;   // 64 MiB: snapshots of ~1M vertices
   int nesting_limit = 16;
   // Where the server's log lines go (syslog priority: 3 error … 7 debug).
   std::function<void(int priority, const std::string& line)> log;
@@ -107,6 +110,7 @@ class Server {
   ServerOptions options_;
   SceneInfo scene_;
   std::unique_ptr<PublishedReader> reader_;
+  std::uint64_t receive_limit_words_ = 0;
   int listen_fd_ = -1;
   kj::Own<kj::UnixEventPort::FdObserver> listen_observer_;
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;

@@ -12,6 +12,8 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
+#include <time.h>
 #include <vector>
 
 #include <kj/async-io.h>
@@ -26,6 +28,7 @@ class StreamViewer {
   struct Seen {
     std::uint64_t snapshots = 0, frames = 0, keepalives = 0, frames_with_meshes = 0;
     std::uint64_t sequence = 0;       // of the last snapshot or frame
+    std::uint64_t frame_bytes = 0;    // message payloads of the frames received
     bool error = false;
     std::string error_text;
   };
@@ -82,6 +85,11 @@ class StreamViewer {
     std::unique_lock lock(mutex_);
     return changed_.wait_for(lock, timeout, [&] { return seen_.error || seen_.frames >= frames; }) && !seen_.error;
   }
+  // Tick → receipt latencies (ns) of the frames with changes since the last call.
+  std::vector<std::int64_t> take_latencies() {
+    std::lock_guard lock(mutex_);
+    return std::exchange(latencies_, {});
+  }
   bool blocked_now() const {
     std::lock_guard lock(mutex_);
     return inside_block_;
@@ -121,6 +129,13 @@ class StreamViewer {
         if (f.getMeshes().size() == 0) ++v_.seen_.keepalives;
         else ++v_.seen_.frames_with_meshes;
         v_.seen_.sequence = f.getSequence();
+        v_.seen_.frame_bytes += context.getParams().totalSize().wordCount * 8;
+        if (f.getMeshes().size() > 0 && v_.latencies_.size() < kMaxLatencies) {
+          timespec ts;
+          clock_gettime(CLOCK_MONOTONIC, &ts);
+          const std::int64_t now = static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+          v_.latencies_.push_back(now - f.getPublishedNs());
+        }
       } catch (const std::exception& e) {
         v_.seen_.error = true;
         v_.seen_.error_text = e.what();
@@ -175,6 +190,8 @@ class StreamViewer {
   std::condition_variable changed_;
   client::MeshMirror mirror_;
   Seen seen_;
+  static constexpr std::size_t kMaxLatencies = 1 << 20;
+  std::vector<std::int64_t> latencies_;
   bool subscribed_ = false;
   bool blocked_ = false;
   bool inside_block_ = false;
