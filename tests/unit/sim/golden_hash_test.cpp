@@ -30,6 +30,34 @@ std::uint64_t run(Integrator integrator, ForceModel model) {
   return w.hash();
 }
 
+// The narrow phase's every branch: a capsule sweeping across a coarse clay
+// box (faces pushed by the triangle pass, edges and corners, vertices), and a
+// tool thinner than the faces pressing through the middle of one.
+std::uint64_t run_tools() {
+  World<float> w(SimSettings{}, 2);
+  Material m;
+  m.plastic = true;
+  w.add_body(make_box_grid({0.2f, 0.1f, 0.2f}, 6), m);
+  Tool capsule;
+  capsule.shape = ToolShape::capsule;
+  capsule.radius = 0.012;
+  capsule.half_axis = {0.0, 0.0, 0.03};
+  Tool thin;
+  thin.radius = 0.003;
+  const Tool none{.active = false};
+  std::uint64_t contacts[2] = {0, 0};
+  for (int n = 0; n < 300; ++n) {
+    capsule.position = {-0.12 + 0.0008 * n, 0.058 - 0.012 * std::min(n, 100) / 100.0, 0.01 * std::sin(n * 0.05)};
+    thin.position = {0.013, 0.06 - 0.015 * std::min(n, 200) / 200.0, 0.017};
+    const Tool tools[2] = {capsule, n < 250 ? thin : none};
+    w.step(tools);
+    for (int t = 0; t < 2; ++t) contacts[t] += w.feedback()[t].contacts;
+  }
+  EXPECT_GT(contacts[0], 100u) << "the capsule never touched the box";
+  EXPECT_GT(contacts[1], 0u) << "the thin tool never touched the box";
+  return w.hash();
+}
+
 TEST(Determinism, GoldenHashes) {
   for (bool portable : {false, true}) {
     kernel::force_portable(portable);
@@ -37,6 +65,7 @@ TEST(Determinism, GoldenHashes) {
     EXPECT_EQ(run(Integrator::position_verlet, ForceModel::linear), 0x39a48e78cdf391afull);
     EXPECT_EQ(run(Integrator::symplectic_euler, ForceModel::spring), 0xf94d87994dde39fdull);
     EXPECT_EQ(run(Integrator::velocity_verlet, ForceModel::spring), 0x6d5696d8162f7e4full);
+    EXPECT_EQ(run_tools(), 0xbce6ce831fca8010ull);
   }
   kernel::force_portable(false);
   RecordProperty("clone", kernel::active_clone());
