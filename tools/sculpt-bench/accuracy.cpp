@@ -6,6 +6,7 @@
 //   sculpt-bench accuracy [--problem oscillator,chain,mesh] [--integrator verlet,...|all]
 //                         [--precision float|double|both] [--dt LIST] [--substeps LIST]
 //                         [--impl daemon|lab] [--json] [--out DIR] [--quiet]
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>

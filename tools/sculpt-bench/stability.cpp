@@ -172,6 +172,7 @@ void scene_rows(const StabilityOptions& o, Report& report) {
       r["scene"] = short_name(file);
       r["mesh"] = m.name;
       r["material"] = m.material;
+      r["damping"] = mat.damping != 0.0 || mat.anchor_damping != 0.0;  // as the scene's material has it
       r["vertices"] = m.loaded.mesh.positions.size();
       r["rate_hz"] = sc.settings.rate_hz;
       r["substeps"] = sub;

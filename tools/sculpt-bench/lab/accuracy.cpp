@@ -218,8 +218,7 @@ const Reference* ReferenceCache::get(double dt) {
   if (p_.exact) return nullptr;
   auto it = refs_.find(dt);
   if (it != refs_.end()) return &it->second;
-  // At least 16 reference steps per step of the finest case measured.
-  const int refine = std::max(16, static_cast<int>(std::ceil(16.0 * dt / finest_ - 1e-9)));
+  const int refine = std::max(refine_, static_cast<int>(std::ceil(refine_ * dt / finest_ - 1e-9)));
   return &refs_.emplace(dt, make_reference(p_, dt, refine)).first->second;
 }
 

@@ -51,12 +51,14 @@ CaseResult run_case(const Problem& p, const CaseSpec& spec, const Reference* ref
 // Caches one reference per tick length (the mesh problem).
 class ReferenceCache {
  public:
-  explicit ReferenceCache(const Problem& p, double finest_dt) : p_(p), finest_(finest_dt) {}
+  // References take at least `refine` steps per step of the finest case measured.
+  ReferenceCache(const Problem& p, double finest_dt, int refine = 16) : p_(p), finest_(finest_dt), refine_(refine) {}
   const Reference* get(double dt);
 
  private:
   const Problem& p_;
   double finest_;
+  int refine_;
   std::map<double, Reference> refs_;
 };
 
