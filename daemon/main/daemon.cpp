@@ -499,6 +499,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     return {};
   }
 
+  bool paused_now() override { return sim_->paused(); }
+
   std::uint64_t replay_horizon() const {
     return current_tick() + static_cast<std::uint64_t>(std::llround(kReplayLeadSeconds * rate_)) + 1;
   }

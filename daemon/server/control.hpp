@@ -65,7 +65,11 @@ class Control {
   // Each returns "" on success, else what went wrong (naming the file/field).
   virtual std::string load_scene(const std::string& path) = 0;
   virtual std::string reset() = 0;
+  // Asks; the sim thread applies it at its next tick boundary.
   virtual std::string set_paused(bool paused) = 0;
+  // What the sim thread runs now (pause answers once this agrees: a snapshot
+  // taken after pause() returns is the final state).
+  virtual bool paused_now() = 0;
 };
 
 }  // namespace sculpt::server

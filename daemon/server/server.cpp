@@ -107,10 +107,14 @@ class SessionImpl final : public proto::Session::Server {
     return result(context.getResults().initResult(), server_.control().reset());
   }
   kj::Promise<void> pause(PauseContext context) override {
-    return result(context.getResults().initResult(), server_.control().set_paused(true));
+    const std::string error = server_.control().set_paused(true);
+    if (!error.empty()) return result(context.getResults().initResult(), error);
+    return server_.until_paused(true).then([context]() mutable { context.getResults().initResult().setOk(true); });
   }
   kj::Promise<void> resume(ResumeContext context) override {
-    return result(context.getResults().initResult(), server_.control().set_paused(false));
+    const std::string error = server_.control().set_paused(false);
+    if (!error.empty()) return result(context.getResults().initResult(), error);
+    return server_.until_paused(false).then([context]() mutable { context.getResults().initResult().setOk(true); });
   }
 
  private:
@@ -308,6 +312,14 @@ void Server::set_rate(std::uint64_t id, float fps) {
 void Server::set_tolerance(std::uint64_t id, float tolerance) {
   if (auto it = streams_.find(id); it != streams_.end())
     it->second->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+}
+
+kj::Promise<void> Server::until_paused(bool paused, int tries) {
+  // The sim thread applies it within a period; a stopped one never does.
+  if (control_.paused_now() == paused || tries <= 0) return kj::READY_NOW;
+  return io_.provider->getTimer().afterDelay(1 * kj::MILLISECONDS).then([this, paused, tries] {
+    return until_paused(paused, tries - 1);
+  });
 }
 
 void Server::said_hello(std::uint64_t client) {

@@ -33,7 +33,12 @@ class FakeControl final : public server::Control {
   }
   std::string load_scene(const std::string& path) override { return "not here: " + path; }
   std::string reset() override { return {}; }
-  std::string set_paused(bool) override { return {}; }
+  std::string set_paused(bool p) override {
+    paused = p;
+    return {};
+  }
+  bool paused_now() override { return paused; }
+  bool paused = false;
 };
 
 struct Fixture {
