@@ -1,7 +1,9 @@
 // A window: SDL2 with an EGL/GLES 3 context (X11 or Wayland), the mouse
 // orbits, pans and zooms, keys toggle what is drawn and take screenshots.
 #include <SDL2/SDL.h>
+#include <dlfcn.h>
 #include <fmt/format.h>
+#include <link.h>
 
 #include <chrono>
 #include <ctime>
@@ -11,6 +13,15 @@
 #include "app/run.hpp"
 #include "gl/fbo.hpp"
 #include "render/renderer.hpp"
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SCULPT_VIEW_ASAN 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define SCULPT_VIEW_ASAN 1
+#endif
 
 namespace sculpt::view {
 
@@ -66,6 +77,26 @@ std::string screenshot_name(const std::string& dir) {
   }
 }
 
+
+// Sanitizer builds only: SDL_Quit terminates EGL, and Mesa then unloads its
+// driver, so LeakSanitizer meets Mesa's own leftovers with no module name to
+// suppress them by. Pinning the loaded driver keeps the names
+// (tests/viewer/lsan.supp suppresses Mesa's leaks, and only those).
+void pin_gl_driver() {
+#ifdef SCULPT_VIEW_ASAN
+  dl_iterate_phdr(
+      [](dl_phdr_info* info, std::size_t, void*) {
+        const std::string name = info->dlpi_name != nullptr ? info->dlpi_name : "";
+        if (name.find("/dri/") != std::string::npos || name.find("libgallium") != std::string::npos ||
+            name.find("libEGL_mesa") != std::string::npos || name.find("libLLVM") != std::string::npos) {
+          dlopen(name.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);  // one more reference, never dropped
+        }
+        return 0;
+      },
+      nullptr);
+#endif
+}
+
 }  // namespace
 
 int run_window(const Options& options, Source& source) {
@@ -83,6 +114,7 @@ int run_window(const Options& options, Source& source) {
     open(window, options, 0);
   }
   SDL_GL_SetSwapInterval(1);
+  pin_gl_driver();
   if (!options.quiet) {
     fmt::print(stderr, "sculpt-view: window on {} ({})\n", SDL_GetCurrentVideoDriver(),
                reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
