@@ -5,6 +5,7 @@
 // SIGTERM closes it cleanly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "child.hpp"
@@ -69,6 +70,47 @@ TEST_F(WindowMode, ShowsTheMeshAndClosesOnSigterm) {
   if (!screen.rgba.empty()) view::write_png(dir_ + "/screen.png", screen);
   EXPECT_GT(seen, 0.01) << "no mesh on the X screen (kept " << dir_ << "/screen.png)";
   EXPECT_TRUE(view.running()) << view.log();
+  view.signal(SIGTERM);
+  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
+}
+
+// Keys: 'w' turns the wireframe on, 's' writes a screenshot into --screenshot-dir.
+TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
+  const std::string shots = dir_ + "/shots";
+  std::filesystem::create_directories(shots);
+  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10",
+              "--screenshot-dir", shots},
+             dir_ + "/view.txt", env());
+  ASSERT_TRUE(view.wait_for_log("window on x11", 60s)) << view.log();
+  const auto files = [&] {
+    std::vector<std::filesystem::path> all;
+    for (const auto& e : std::filesystem::directory_iterator(shots)) all.push_back(e.path());
+    return all;
+  };
+  // Presses 's' until a screenshot appears that is not in `before`; returns it.
+  const auto new_shot = [&](const std::vector<std::filesystem::path>& before) -> std::filesystem::path {
+    const auto deadline = std::chrono::steady_clock::now() + 30s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      for (const auto& f : files()) {
+        if (std::find(before.begin(), before.end(), f) == before.end()) return f;
+      }
+      send_key(display_, "sculpt-view", "s");
+      std::this_thread::sleep_for(500ms);
+    }
+    return {};
+  };
+  const std::filesystem::path first = new_shot({});
+  ASSERT_FALSE(first.empty()) << view.log();
+  std::this_thread::sleep_for(1s);   // let any second press land before the toggle
+  ASSERT_TRUE(send_key(display_, "sculpt-view", "w"));
+  std::this_thread::sleep_for(1s);
+  const std::filesystem::path second = new_shot(files());
+  ASSERT_FALSE(second.empty()) << view.log();
+  const view::Image plain = view::read_png(first);
+  const view::Image wire = view::read_png(second);
+  EXPECT_GT(mesh_colour_fraction(plain), 0.01);
+  EXPECT_GT(compare(plain, wire).bad_fraction, 0.01) << "'w' did not change the picture";
+  EXPECT_NE(view.log().find("screenshot " + shots), std::string::npos) << view.log();
   view.signal(SIGTERM);
   EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
 }

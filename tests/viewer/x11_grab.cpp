@@ -32,4 +32,47 @@ view::Image grab_root(const std::string& display) {
   return img;
 }
 
+namespace {
+
+::Window find_titled(Display* d, ::Window w, const std::string& title) {
+  char* name = nullptr;
+  if (XFetchName(d, w, &name) != 0 && name != nullptr) {
+    const bool match = title == name;
+    XFree(name);
+    if (match) return w;
+  }
+  ::Window root = 0, parent = 0, *children = nullptr;
+  unsigned n = 0;
+  ::Window found = 0;
+  if (XQueryTree(d, w, &root, &parent, &children, &n) != 0) {
+    for (unsigned i = 0; i < n && found == 0; ++i) found = find_titled(d, children[i], title);
+    if (children != nullptr) XFree(children);
+  }
+  return found;
+}
+
+}  // namespace
+
+bool send_key(const std::string& display, const std::string& title, const std::string& key) {
+  Display* d = XOpenDisplay(display.c_str());
+  if (d == nullptr) return false;
+  const ::Window w = find_titled(d, DefaultRootWindow(d), title);
+  if (w != 0) {
+    XKeyEvent e{};
+    e.display = d;
+    e.window = w;
+    e.root = DefaultRootWindow(d);
+    e.same_screen = True;
+    e.keycode = XKeysymToKeycode(d, XStringToKeysym(key.c_str()));
+    e.time = CurrentTime;
+    e.type = KeyPress;
+    XSendEvent(d, w, True, KeyPressMask, reinterpret_cast<XEvent*>(&e));
+    e.type = KeyRelease;
+    XSendEvent(d, w, True, KeyReleaseMask, reinterpret_cast<XEvent*>(&e));
+    XSync(d, False);
+  }
+  XCloseDisplay(d);
+  return w != 0;
+}
+
 }  // namespace sculpt::viewtest

@@ -11,4 +11,8 @@ namespace sculpt::viewtest {
 // Empty image when the display cannot be opened.
 view::Image grab_root(const std::string& display);
 
+// Sends a key press and release (XSendEvent) to the top-level window titled
+// `title`; `key` is a keysym name ("s", "w"). False when there is no such window.
+bool send_key(const std::string& display, const std::string& title, const std::string& key);
+
 }  // namespace sculpt::viewtest
