@@ -102,7 +102,8 @@ class LiveSource final : public Source {
       lines.push_back(fmt::format("NO DAEMON ON {}: RETRYING", path_));
     }
     if (const auto& s = model_.stats) {
-      lines.push_back(fmt::format("SCULPTD {:.0f} HZ  JITTER P99 {:.0f} US  OVERRUNS {}{}", s->rate_hz,
+      lines.push_back(fmt::format("SCULPTD {:.0f} HZ{}  JITTER P99 {:.0f} US  OVERRUNS {}{}", s->rate_hz,
+                                  measured_hz_ > 0 ? fmt::format(" (KEPT {:.0f})", measured_hz_) : "",
                                   s->jitter_p99_us, s->overruns, s->paused ? "  PAUSED" : ""));
       lines.push_back(fmt::format("AWAKE {}/{} VERTICES  VIEWERS {}  DEVICES {}", s->vertices_awake,
                                   s->vertices_total, s->viewers, s->devices));
@@ -183,6 +184,12 @@ class LiveSource final : public Source {
       v.viewers = s.getViewers();
       v.devices = s.getDevices();
       v.paused = s.getPaused();
+      // The rate the loop really keeps, between two stats messages.
+      if (last_uptime_s_ > 0 && s.getUptimeS() > last_uptime_s_ && s.getTicks() >= last_ticks_) {
+        measured_hz_ = static_cast<double>(s.getTicks() - last_ticks_) / (s.getUptimeS() - last_uptime_s_);
+      }
+      last_ticks_ = s.getTicks();
+      last_uptime_s_ = s.getUptimeS();
       model_.stats = v;
     }
   }
@@ -258,6 +265,9 @@ class LiveSource final : public Source {
   std::string last_down_;
   Clock::time_point next_retry_{};
   double lag_ms_ = 0;
+  std::uint64_t last_ticks_ = 0;
+  double last_uptime_s_ = 0;
+  double measured_hz_ = 0;
 };
 
 kj::Promise<void> ViewerImpl::snapshot(SnapshotContext context) {
