@@ -205,6 +205,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       it->second.connected = false;
       it->second.node.clear();
     }
+    tell_server_devices();
     anchors_[slot % anchors_.size()] = Anchor{};
     push(input::InputMessage::detach(slot), "detach");
     if (haptics_) haptics_->detach(slot);
@@ -319,6 +320,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     };
     server_ = std::make_unique<server::Server>(io_, *this, sopts);
     server_->set_scene(scene_info(scene_, rate_), *published_);
+    tell_server_devices();
     listen_ = std::make_unique<server::ListenSocket>(server::ListenSocket::open(client::resolve_socket_path(cfg_.socket)));
     socket_path_ = listen_->path();
     server_->listen(listen_->release());
@@ -431,6 +433,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     }
     while (auto m = old->ring().try_pop()) push(*m, "queued");
     server_->set_scene(scene_info(scene_, rate_), *published_);
+    tell_server_devices();
     old.reset();
     old_published.reset();
     start_sim(tick, paused);
@@ -452,6 +455,18 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     for (std::uint32_t t = 0; t < input::kMaxTools; ++t)
       if (b.drives(t)) d.tools.push_back(t);
     known_devices_[slot] = std::move(d);
+    tell_server_devices();
+  }
+
+  // The streamed tools say which device drives them.
+  void tell_server_devices() {
+    if (!server_) return;
+    std::vector<std::int32_t> slot_of(tools_, -1);
+    for (const auto& [slot, d] : known_devices_)
+      if (d.connected)
+        for (std::uint32_t t : d.tools)
+          if (t < slot_of.size()) slot_of[t] = static_cast<std::int32_t>(slot);
+    server_->set_tool_devices(slot_of);
   }
 
   // --- server::Control (io thread) -------------------------------------------

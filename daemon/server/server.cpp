@@ -208,6 +208,11 @@ void Server::set_scene(SceneInfo info, const PublishedState& state) {
   for (auto& [id, s] : streams_) s->needs_snapshot = true;
 }
 
+void Server::set_tool_devices(const std::vector<std::int32_t>& slot_of_tool) {
+  for (std::size_t t = 0; t < scene_.tools.size(); ++t)
+    scene_.tools[t].device_slot = t < slot_of_tool.size() ? slot_of_tool[t] : -1;
+}
+
 void Server::listen(int fd) {
   listen_fd_ = fd;
   const int flags = ::fcntl(fd, F_GETFL, 0);

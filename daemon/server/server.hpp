@@ -67,6 +67,8 @@ class Server {
   // The scene being streamed; every viewer gets a new snapshot. `state`
   // must stay alive until the next set_scene (or the server's end).
   void set_scene(SceneInfo info, const PublishedState& state);
+  // Which device slot drives each tool (-1: none), as devices come and go.
+  void set_tool_devices(const std::vector<std::int32_t>& slot_of_tool);
   // Accepts clients on a listening socket (takes ownership of the fd).
   void listen(int fd);
   // Serves one connected stream (the listener's accepts; tests; the fuzzer).

@@ -39,6 +39,7 @@ void MeshMirror::read_tools(capnp::List<proto::Tool>::Reader tools) {
     m.orientation = {q.getW(), q.getX(), q.getY(), q.getZ()};
     m.grabbing = t.getGrabbing();
     m.contacts = t.getContacts();
+    m.device_slot = t.getDeviceSlot();
   }
 }
 

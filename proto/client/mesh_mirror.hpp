@@ -49,6 +49,7 @@ struct MirrorTool {
   std::array<float, 4> orientation{1, 0, 0, 0};  // w, x, y, z
   bool grabbing = false;
   std::uint32_t contacts = 0;
+  std::int32_t device_slot = -1;  // the device slot driving it, -1: none
 };
 
 // Vertices [begin, end) of meshes()[mesh] changed.

@@ -156,7 +156,8 @@ int main(int argc, char** argv) {
       }
     }
   }
-  auto st = control.session().statusRequest().send().wait(io.waitScope).getStats();
+  auto status = control.session().statusRequest().send().wait(io.waitScope);
+  const auto st = status.getStats();
   std::printf("stream_bench: %s + %s, %g fps, tolerance %g m, %d rounds of %.1f s windows (after %.1f s settling)%s\n",
               argv[1], argv[2], fps, tolerance, rounds, window_s, settle_s, realtime ? ", sculptd --realtime" : "");
   std::printf("  sim: %llu vertices, %llu ticks, %llu overruns so far\n",

@@ -129,6 +129,10 @@ TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTole
   for (int i = 16; i < 20; ++i) add(i);
   std::this_thread::sleep_for(1500ms);
   EXPECT_EQ(control.viewers(), 16u);
+  // The recorded gamepad (slot 0) drives both tools.
+  const client::MeshMirror now = control.snapshot();
+  ASSERT_EQ(now.tools().size(), 2u);
+  for (const auto& t : now.tools()) EXPECT_EQ(t.device_slot, 0) << "tool " << t.id;
 
   expect_viewers_match(control, viewers);
   std::uint64_t with_meshes = 0;
