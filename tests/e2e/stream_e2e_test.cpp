@@ -317,6 +317,47 @@ TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
   ::unlink(idle.c_str());
 }
 
+TEST(Stream, SocketActivationServesThePassedSocket) {
+  // systemd-socket-activate listens, then execs sculptd with LISTEN_FDS=1 on
+  // the first connection, as sculptd.socket does.
+  const char* activate = "/usr/bin/systemd-socket-activate";
+  ASSERT_EQ(::access(activate, X_OK), 0) << "systemd (systemd-socket-activate) is a build dependency";
+  const std::string socket = temp_path("activated.sock"), other = temp_path("not-used.sock"),
+                    log = temp_path("activated.log");
+  ::unlink(socket.c_str());
+  ::unlink(other.c_str());
+  std::vector<std::string> args = {activate, "-l", socket, SCULPTD_BIN, "--scene", "builtin:default",
+                                   "--input", "replay:" + sessions("push.jsonl"), "--socket", other};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = -1;
+  ASSERT_EQ(::posix_spawn(&pid, activate, &fa, nullptr, argv.data(), environ), 0);
+  posix_spawn_file_actions_destroy(&fa);
+  struct Reap {
+    pid_t pid;
+    ~Reap() {
+      ::kill(pid, SIGTERM);
+      int st = 0;
+      ::waitpid(pid, &st, 0);
+    }
+  } reap{pid};
+  for (int i = 0; i < 500 && ::access(socket.c_str(), F_OK) != 0; ++i) std::this_thread::sleep_for(10ms);
+  {
+    auto io = kj::setupAsyncIo();
+    client::Connection c(io, socket, "activated-client");  // this connection starts sculptd
+    auto st = c.session().statusRequest().send().wait(io.waitScope);
+    EXPECT_EQ(st.getStats().getScene(), "builtin:default");
+  }
+  EXPECT_NE(::access(other.c_str(), F_OK), 0) << "sculptd bound --socket although systemd passed one";
+  EXPECT_NE(read_text(log).find("(socket activation)"), std::string::npos) << read_text(log);
+  ::unlink(log.c_str());
+  ::unlink(socket.c_str());
+}
+
 // --- sculptctl ------------------------------------------------------------------
 
 struct CtlRun {
