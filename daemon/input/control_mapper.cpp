@@ -36,6 +36,7 @@ std::size_t ControlMapper::drain(concurrency::SpscRing<InputMessage>& ring, std:
   std::size_t n = 0;
   while (const InputMessage* m = ring.peek()) {
     if (m->at_tick != 0 && m->at_tick > tick) break;
+    if (m->at_tick != 0 && m->at_tick < tick) ++late_;
     apply(*m);
     ring.pop();
     ++n;

@@ -31,6 +31,9 @@ class ControlMapper {
   // (at_tick == 0 or at_tick <= tick), in order; stops at the first one that
   // is not due yet. Returns how many were applied.
   std::size_t drain(concurrency::SpscRing<InputMessage>& ring, std::uint64_t tick);
+  // Scheduled messages (at_tick != 0) applied after their tick: their
+  // producer fell behind. A replay with any is not reproducible.
+  std::uint64_t late() const { return late_; }
 
   std::span<const ToolControl> controls() const { return {controls_.data(), tools_}; }
   std::size_t tools() const { return tools_; }
@@ -52,6 +55,7 @@ class ControlMapper {
   std::size_t tools_;
   std::array<DeviceState, kMaxDevices> devices_{};
   std::array<ToolControl, kMaxTools> controls_{};
+  std::uint64_t late_ = 0;
 };
 
 }  // namespace sculpt::input

@@ -46,8 +46,12 @@ namespace sculpt::daemon {
 namespace {
 
 constexpr std::size_t kRingCapacity = 4096;                 // io → sim messages in flight
+// A replay is queued as far ahead as this ring holds (~1 KiB a message; a
+// minute and more of a typical session), so an io thread starved for
+// seconds on a loaded machine still delivers every frame before its tick:
+// a late one would make the run differ from the recording.
+constexpr std::size_t kReplayRingCapacity = 16384;
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;       // duration check, replay pump, watchdog
-constexpr double kReplayLeadSeconds = 1.0;                  // replay messages queued this far ahead
 constexpr std::chrono::seconds kStatusEvery{5};
 
 loop::Box mesh_bounds(const scene::Scene& s) {
@@ -294,7 +298,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
             return b;
           });
       replay_->start(1);
-      replay_->pump(stages_->ring(), replay_horizon());
+      replay_->pump(stages_->ring());  // as far ahead as the ring holds
       log::info("input: replaying {} ({} devices)", cfg_.input.replay.string(), replay_->header().devices.size());
     } else {
       input::DeviceManagerOptions o;
@@ -367,7 +371,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     limits.min_scale = cfg_.min_scale;
     limits.max_scale = cfg_.max_scale;
     if (!board_) board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
-    p.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, p.rate), *board_, kRingCapacity);
+    const std::size_t ring = cfg_.input.kind == InputSpec::Kind::replay ? kReplayRingCapacity : kRingCapacity;
+    p.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, p.rate), *board_, ring);
     p.published = std::make_unique<server::PublishedState>(*p.world, p.rate, first_tick);
     p.stages->set_published(p.published.get());
     p.scene = std::move(scene);
@@ -516,10 +521,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
   bool paused_now() override { return sim_->paused(); }
 
-  std::uint64_t replay_horizon() const {
-    return current_tick() + static_cast<std::uint64_t>(std::llround(kReplayLeadSeconds * rate_)) + 1;
-  }
-
   kj::Promise<void> watch_signal(int sig) {
     return io_.unixEventPort.onSignal(sig).then([this, sig](siginfo_t) -> kj::Promise<void> {
       if (sig == SIGHUP) {
@@ -583,7 +584,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       request_stop(0);
       return;
     }
-    if (replay_ && !replay_->finished()) replay_->pump(stages_->ring(), replay_horizon());
+    if (replay_ && !replay_->finished()) replay_->pump(stages_->ring());  // as far ahead as the ring holds
     if (watchdog_ && now >= next_watchdog_) {
       // Only a ticking sim thread keeps the service alive: a stuck one gets
       // the process restarted (Restart=on-failure) after WatchdogSec.
@@ -678,6 +679,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     s.viewers = server_ ? server_->viewers() : 0;
     s.bytes_sent = server_ ? server_->counters().bytes_sent : 0;
     const std::uint64_t hash = world_->hash();
+    if (const std::uint64_t late = stages_->late_inputs(); late != 0)
+      log::warning("{} input messages arrived after their tick (the io thread fell behind){}", late,
+                   replay_ ? ": this replay is not reproducible" : "");
     log::info("stopped after {} ticks: {} overruns, jitter p50 {:.1f} us p99 {:.1f} us max {:.1f} us, "
               "{} FF uploads ({} errors), final mesh hash {:016x}",
               s.ticks, s.overruns, s.jitter_us.p50, s.jitter_us.p99, s.jitter_us.max, s.ff_uploads,

@@ -27,6 +27,9 @@ class SculptStages final : public loop::TickStages {
   concurrency::SpscRing<input::InputMessage>& ring() { return ring_; }
   // Messages applied so far (any thread; for tests and the stats).
   std::uint64_t applied() const { return applied_.load(std::memory_order_relaxed); }
+  // Scheduled inputs applied after their tick (see ControlMapper::late);
+  // read it only while the sim thread is stopped.
+  std::uint64_t late_inputs() const { return mapper_.late(); }
 
   void input(std::uint64_t tick, std::span<sim::Tool> tools) override;
   void publish(std::uint64_t tick, const sim::World<float>& world) override;

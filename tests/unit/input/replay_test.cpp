@@ -131,7 +131,9 @@ TEST(ControlMapper, DrainAppliesOnlyWhatIsDue) {
   EXPECT_TRUE(mapper.controls()[1].grab) << "the flight stick's trigger grabs with its tool";
   EXPECT_TRUE(mapper.controls()[0].grab) << "a pad with one tool: BTN_SOUTH grabs with it";
   EXPECT_EQ(mapper.drain(ring, 2099), 0u);
+  EXPECT_EQ(mapper.late(), 0u) << "everything so far came on its tick";
   EXPECT_EQ(mapper.drain(ring, 5000), 1u);
+  EXPECT_EQ(mapper.late(), 1u) << "the 2.1 s frame applied at tick 5000 came late";
 }
 
 class MapperTest : public ::testing::Test {
