@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
@@ -42,6 +43,10 @@ inline std::string temp_path(const std::string& name) {
 class Sculptd {
  public:
   explicit Sculptd(std::vector<std::string> args) {
+    // Never the default socket, where a real service may listen (tests run
+    // on the host wherever /dev/uinput works).
+    if (std::find(args.begin(), args.end(), "--socket") == args.end())
+      args.insert(args.end(), {"--socket", temp_path("sculptd.sock")});
     args.insert(args.begin(), SCULPTD_BIN);
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe2");

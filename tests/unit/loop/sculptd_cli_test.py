@@ -15,6 +15,10 @@ import time
 import unittest
 
 SCULPTD, SCENES, SESSIONS = sys.argv[1], sys.argv[2], sys.argv[3]
+# Every daemon started here listens in a private directory: never on the
+# default path, where a real service or another test's daemon may listen.
+_SOCKET_DIR = tempfile.TemporaryDirectory(prefix="sculptd-cli-test-")
+os.environ["SCULPTD_SOCKET"] = os.path.join(_SOCKET_DIR.name, "sculptd.sock")
 KEYS = sorted(["rate_hz", "ticks", "overruns", "jitter_us", "stage_us", "vertices_total", "vertices_awake",
                "viewers", "devices", "ff_uploads", "bytes_sent", "blowups"])
 
