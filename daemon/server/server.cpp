@@ -376,6 +376,22 @@ void Server::pump() {
   }
 }
 
+kj::Promise<void> Server::track_send(std::uint64_t id, kj::Promise<void> sent) {
+  // One stream call in flight per viewer: its return frees the viewer for
+  // the next frame, its failure ends the stream.
+  return sent
+      .then([this, id] {
+              if (auto it = streams_.find(id); it != streams_.end()) it->second->in_flight = false;
+            },
+            [this, id](kj::Exception&& e) {
+              if (auto it = streams_.find(id); it != streams_.end()) {
+                it->second->dead = true;
+                if (options_.log) options_.log(4, fmt::format("viewer {} ended: {}", id, e.getDescription().cStr()));
+              }
+            })
+      .eagerlyEvaluate(nullptr);
+}
+
 void Server::send_snapshot(Stream& s) {
   auto req = s.viewer.snapshotRequest();
   auto snap = req.initSnapshot();
@@ -393,19 +409,7 @@ void Server::send_snapshot(Stream& s) {
   s.last_send_ns = now_ns();
   counters_.bytes_sent += req.totalSize().wordCount * 8;
   ++counters_.snapshots;
-  const std::uint64_t id = s.id;
-  s.pending = req.send()
-                  .then([this, id] {
-                    if (auto it = streams_.find(id); it != streams_.end()) it->second->in_flight = false;
-                  },
-                        [this, id](kj::Exception&& e) {
-                          if (auto it = streams_.find(id); it != streams_.end()) {
-                            it->second->dead = true;
-                            if (options_.log)
-                              options_.log(4, fmt::format("viewer {} ended: {}", id, e.getDescription().cStr()));
-                          }
-                        })
-                  .eagerlyEvaluate(nullptr);
+  s.pending = track_send(s.id, req.send());
 }
 
 bool Server::send_frame(Stream& s, std::int64_t now) {
@@ -480,19 +484,7 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
   counters_.bytes_sent += req.totalSize().wordCount * 8;
   ++counters_.frames;
   if (changed_meshes == 0 && !tools_moved) ++counters_.keepalives;
-  const std::uint64_t id = s.id;
-  s.pending = req.send()
-                  .then([this, id] {
-                    if (auto it = streams_.find(id); it != streams_.end()) it->second->in_flight = false;
-                  },
-                        [this, id](kj::Exception&& e) {
-                          if (auto it = streams_.find(id); it != streams_.end()) {
-                            it->second->dead = true;
-                            if (options_.log)
-                              options_.log(4, fmt::format("viewer {} ended: {}", id, e.getDescription().cStr()));
-                          }
-                        })
-                  .eagerlyEvaluate(nullptr);
+  s.pending = track_send(s.id, req.send());
   return true;
 }
 
