@@ -51,6 +51,7 @@ int FfDevice::upload(ff_effect& e, std::int16_t& id) {
     id = e.id;
     add_live(1);
   }
+  ++uploads_;
   if (counters_) counters_->uploads.fetch_add(1, std::memory_order_relaxed);
   return 0;
 }

@@ -79,6 +79,8 @@ class FfDevice {
   std::int16_t constant_id() const { return constant_id_; }
   std::int16_t rumble_id() const { return rumble_id_; }
   int live_effects() const { return (constant_id_ >= 0) + (rumble_id_ >= 0); }
+  // Successful uploads (new and in place) to this device since it was opened.
+  std::uint64_t uploads() const { return uploads_; }
   // The constant the device has now (valid while constant_id() >= 0).
   const ConstantCommand& current_constant() const { return current_; }
 
@@ -97,6 +99,7 @@ class FfDevice {
   bool gone_ = false;
   bool shut_ = false;       // shut down: nothing more is sent
   bool rumble_has_ = false; // FF_RUMBLE usable at all (bit, option, a slot)
+  std::uint64_t uploads_ = 0;
   std::int16_t constant_id_ = -1;
   std::int16_t rumble_id_ = -1;
   ConstantCommand current_{};

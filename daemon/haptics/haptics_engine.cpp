@@ -65,7 +65,7 @@ void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolSt
   if (devices_.count(slot)) detach_alive(slot);
   const auto interval = std::chrono::duration_cast<std::chrono::nanoseconds>(settings_.min_upload_interval);
   Attached d{node, std::move(tools), nullptr, ConstantPacer(interval, settings_.change), KickPacer(interval), {}, false,
-             std::nullopt, 0};
+             std::nullopt, 0, 0};
   d.onsets_seen.assign(d.tools.size(), 0);
   open_ff(d);
   devices_.emplace(slot, std::move(d));
@@ -110,6 +110,7 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
         stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
       }
       open_ff(d);
+      d.uploads_counted = 0;
       d.constant.reset();
     } else if (d.ff) {
       d.ff->set_gain(settings_.gain);
@@ -122,7 +123,16 @@ void HapticsEngine::poll(Clock::time_point now) {
     if (!d.ff) continue;
     if (d.ff->gone()) reopen_if_still_plugged(d, now);
     if (d.ff && !d.ff->gone()) poll_device(d, now);
+    count_uploads(slot, d);
   }
+}
+
+void HapticsEngine::count_uploads(int slot, Attached& d) {
+  if (!d.ff || slot < 0 || slot >= HapticsStats::kSlots) return;
+  const std::uint64_t n = d.ff->uploads();
+  if (n == d.uploads_counted) return;
+  stats_.slot_uploads[static_cast<std::size_t>(slot)].fetch_add(n - d.uploads_counted, std::memory_order_relaxed);
+  d.uploads_counted = n;
 }
 
 void HapticsEngine::reopen_if_still_plugged(Attached& d, Clock::time_point now) {
@@ -136,6 +146,7 @@ void HapticsEngine::reopen_if_still_plugged(Attached& d, Clock::time_point now) 
                  std::to_string(d.reopens) + ")");
   stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
   open_ff(d);  // the old FfDevice forgets its ids: the kernel dropped them with the fd
+  d.uploads_counted = 0;
   d.constant.reset();
   d.gone_since.reset();
 }

@@ -4,6 +4,8 @@
 // explicit clock.
 #pragma once
 
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <map>
@@ -51,6 +53,10 @@ struct HapticsStats {
   std::atomic<int> devices{0};                // devices attached (FF or not)
   std::atomic<int> ff_devices{0};             // of those, with usable FF
   std::atomic<std::uint64_t> open_failures{0};
+  // Successful uploads per device slot (the input layer's slots, which a
+  // replugged device keeps), counted since the daemon started.
+  static constexpr int kSlots = 16;
+  std::array<std::atomic<std::uint64_t>, kSlots> slot_uploads{};
 };
 
 class HapticsEngine {
@@ -89,12 +95,14 @@ class HapticsEngine {
     // was first seen, and how many times the node was reopened since attach.
     std::optional<Clock::time_point> gone_since;
     int reopens = 0;
+    std::uint64_t uploads_counted = 0;  // of ff->uploads(), already in slot_uploads
   };
   void open_ff(Attached& d);
   void detach_alive(int slot);
   void say(int priority, const std::string& message) const;
   void poll_device(Attached& d, Clock::time_point now);
   void reopen_if_still_plugged(Attached& d, Clock::time_point now);
+  void count_uploads(int slot, Attached& d);
 
   const FeedbackBoard& board_;
   HapticsSettings settings_;

@@ -492,7 +492,11 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
   std::vector<server::DeviceEntry> devices() override {
     std::vector<server::DeviceEntry> out;
-    for (const auto& [slot, d] : known_devices_) out.push_back(d);
+    for (const auto& [slot, d] : known_devices_) {
+      out.push_back(d);
+      if (haptics_ && slot < haptics::HapticsStats::kSlots)
+        out.back().ff_uploads = haptics_->stats().slot_uploads[slot].load(std::memory_order_relaxed);
+    }
     return out;
   }
   std::string load_scene(const std::string& path) override {

@@ -216,6 +216,8 @@ TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   engine().poll(t0 + 4ms);  // inside the old interval: a new device is not paced by the old one
   const auto ups = constant_uploads(*second);
   ASSERT_EQ(ups.size(), 1u);
+  EXPECT_EQ(stats.slot_uploads[3].load(), 2u) << "the slot counts both devices' uploads";
+  EXPECT_EQ(stats.slot_uploads[0].load(), 0u);
   EXPECT_EQ(ups[0].effect.id, -1);
   EXPECT_EQ(ups[0].effect.u.constant.level, 16384);
   EXPECT_EQ(stats.ff.live_effects.load(), 1);
