@@ -25,6 +25,7 @@
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
+#include "loop/scene_tools.hpp"
 #include "loop/tool_driver.hpp"
 #include "scene/scene.hpp"
 #include "sim/world.hpp"
@@ -117,38 +118,14 @@ int main(int argc, char** argv) {
   const double rate = sc.settings.rate_hz;
   const int slots = static_cast<int>(std::max<std::size_t>(sc.tools.size(), 1));
   sim::World<float> world(sc.settings, slots);
-  loop::Box box{{0, 0, 0}, {0, 0, 0}};
-  bool any = false;
-  for (const auto& m : sc.meshes) {
-    world.add_body(m.loaded.mesh, sc.material_of(m));
-    for (const auto& p : m.loaded.mesh.positions)
-      for (int k = 0; k < 3; ++k) {
-        if (!any || p[k] < box.lo[k]) box.lo[k] = p[k];
-        if (!any || p[k] > box.hi[k]) box.hi[k] = p[k];
-        any = any || k == 2;
-      }
-  }
-  std::vector<loop::ToolSpec> specs;
-  std::vector<input::ToolRoute> routes;
-  for (const auto& t : sc.tools) {
-    loop::ToolSpec s;
-    s.shape = t.shape == scene::ToolShape::capsule ? sim::ToolShape::capsule : sim::ToolShape::sphere;
-    s.radius = t.radius, s.half_length = t.half_length, s.position = t.position, s.speed = t.speed;
-    specs.push_back(s);
-    input::ToolRoute r;
-    r.device = t.device;
-    r.device_name = t.device_name;
-    r.stick = t.stick == scene::Stick::right ? input::Stick::right
-              : t.stick == scene::Stick::main ? input::Stick::main
-                                              : input::Stick::left;
-    routes.push_back(r);
-  }
+  for (const auto& m : sc.meshes) world.add_body(m.loaded.mesh, sc.material_of(m));
+  const std::vector<loop::ToolSpec> specs = loop::tool_specs(sc);
   loop::DriverLimits limits;  // sculptd's defaults (tool margin 0.1 m)
-  limits.bounds = loop::tool_bounds(box, specs, 0.1);
+  limits.bounds = loop::tool_bounds(loop::mesh_bounds(sc), specs, 0.1);
   loop::ToolDriver driver(specs, limits, rate);
   concurrency::SpscRing<input::InputMessage> ring(4096);
   input::ControlMapper mapper(driver.size());
-  input::ToolRouter router(routes);
+  input::ToolRouter router(loop::tool_routes(sc));
   const input::MappingConfig mapping = input::parse_mapping(toml::table{});
   input::ReplaySource replay(session_file, rate, [&](std::uint8_t slot, const input::DeviceInfo& info) {
     router.detach(slot);
