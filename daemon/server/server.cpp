@@ -8,21 +8,15 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <ctime>
 
 #include <capnp/rpc.h>
 #include <fmt/format.h>
 
+#include "loop/sim_thread.hpp"
 #include "server/encode.hpp"
 
 namespace sculpt::server {
 namespace {
-
-std::int64_t now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 bool same_tools(const PublishedHeader& a, const PublishedHeader& b) {
   if (a.tool_count != b.tool_count) return false;
@@ -239,7 +233,7 @@ kj::Promise<void> Server::accept_loop() {
     if (clients_.size() >= options_.max_clients) {
       ::close(fd);
       ++counters_.refused;
-      const std::int64_t now = now_ns();
+      const std::int64_t now = loop::monotonic_ns();
       if (options_.log && now - refused_logged_ns_ > 1'000'000'000) {
         options_.log(4, fmt::format("refusing a client ({}): {} clients already connected ({} refused so far)", peer,
                                     clients_.size(), counters_.refused));
@@ -363,7 +357,7 @@ void Server::pump() {
   }
   if (streams_.empty() || !reader_) return;
   reader_->sync();
-  const std::int64_t now = now_ns();
+  const std::int64_t now = loop::monotonic_ns();
   for (auto& [id, s] : streams_) {
     if (s->in_flight || s->dead) continue;
     if (s->needs_snapshot) {
@@ -406,7 +400,7 @@ void Server::send_snapshot(Stream& s) {
   s.sequence = reader_->header().tick;
   s.needs_snapshot = false;
   s.in_flight = true;
-  s.last_send_ns = now_ns();
+  s.last_send_ns = loop::monotonic_ns();
   counters_.bytes_sent += req.totalSize().wordCount * 8;
   ++counters_.snapshots;
   s.pending = track_send(s.id, req.send());
