@@ -325,12 +325,15 @@ void Server::said_hello(std::uint64_t client) {
   if (auto it = clients_.find(client); it != clients_.end()) it->second->hello = true;
 }
 
-void Server::fill_status(proto::Stats::Builder out) {
+DaemonStatus Server::status_now() {
+  // The daemon's numbers, with the two only the server knows.
   DaemonStatus d = control_.status();
   d.stats.viewers = streams_.size();
   d.stats.bytes_sent = counters_.bytes_sent;
-  server::fill_stats(out, d);
+  return d;
 }
+
+void Server::fill_status(proto::Stats::Builder out) { server::fill_stats(out, status_now()); }
 
 void Server::fill_snapshot_now(proto::Snapshot::Builder out) {
   if (!reader_) return;
@@ -463,10 +466,8 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
   }
   fill_tools(f.initTools(static_cast<unsigned>(std::min<std::size_t>(h.tool_count, scene_.tools.size()))), scene_, h);
   if (now - s.last_stats_ns >= options_.stats_every_ns) {
-    DaemonStatus d = control_.status();
+    DaemonStatus d = status_now();
     d.jitter.clear();  // the overlay needs the quantiles, not the histogram
-    d.stats.viewers = streams_.size();
-    d.stats.bytes_sent = counters_.bytes_sent;
     server::fill_stats(f.initStats(), d);
     f.setHasStats(true);
     s.last_stats_ns = now;

@@ -107,6 +107,7 @@ class Server {
   kj::Promise<void> accept_loop();
   kj::Promise<void> pump_loop();
   kj::Promise<void> track_send(std::uint64_t id, kj::Promise<void> sent);
+  DaemonStatus status_now();
   void send_snapshot(Stream& s);
   bool send_frame(Stream& s, std::int64_t now);
 
