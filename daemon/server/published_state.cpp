@@ -97,6 +97,22 @@ std::span<const std::uint32_t> PublishedReader::block_vertices(std::size_t b, st
   return std::span<const std::uint32_t>(l.to_original).subspan(begin, end - begin);
 }
 
+const std::array<float, 6>& PublishedReader::bounds(std::size_t b) const {
+  const Body& body = bodies_[b];
+  if (body.bounds_stale) {
+    std::array<float, 6> bb{0, 0, 0, 0, 0, 0};
+    const auto& p = body.positions;
+    for (std::size_t i = 0; i < p.size(); i += 3)
+      for (int a = 0; a < 3; ++a) {
+        if (i == 0 || p[i + a] < bb[a]) bb[a] = p[i + a];
+        if (i == 0 || p[i + a] > bb[3 + a]) bb[3 + a] = p[i + a];
+      }
+    body.bounds = bb;
+    body.bounds_stale = false;
+  }
+  return body.bounds;
+}
+
 const PublishedHeader& PublishedReader::sync() {
   // The header first: every block the sim wrote up to that tick is visible
   // below, so what we copy is at least as new as it.
@@ -131,16 +147,7 @@ const PublishedHeader& PublishedReader::sync() {
       dst.serial[k] = serial_;
       changed = true;
     }
-    if (changed || serial_ == 1) {
-      std::array<float, 6> bb{0, 0, 0, 0, 0, 0};
-      const auto& p = dst.positions;
-      for (std::size_t i = 0; i < p.size(); i += 3)
-        for (int a = 0; a < 3; ++a) {
-          if (i == 0 || p[i + a] < bb[a]) bb[a] = p[i + a];
-          if (i == 0 || p[i + a] > bb[3 + a]) bb[3 + a] = p[i + a];
-        }
-      dst.bounds = bb;
-    }
+    if (changed) dst.bounds_stale = true;
   }
   header_ = h;
   return header_;

@@ -107,8 +107,10 @@ class PublishedReader {
   std::uint64_t serial() const { return serial_; }
   // File-order indices of the vertices in a block.
   std::span<const std::uint32_t> block_vertices(std::size_t b, std::uint32_t block) const;
-  // Bounds of the current positions of a body (recomputed when it changed).
-  const std::array<float, 6>& bounds(std::size_t b) const { return bodies_[b].bounds; }
+  // Bounds of the current positions of a body: recomputed when asked after a
+  // change (a frame or snapshot), not on every sync — the pump syncs far more
+  // often than viewers take frames, and a rescan walks the whole body.
+  const std::array<float, 6>& bounds(std::size_t b) const;
   std::uint64_t torn_retries() const { return torn_; }
 
  private:
@@ -116,7 +118,8 @@ class PublishedReader {
     std::vector<float> positions;
     std::vector<std::uint64_t> seen;    // block sequence copied last
     std::vector<std::uint64_t> serial;  // sync() serial of its last change
-    std::array<float, 6> bounds{};
+    mutable std::array<float, 6> bounds{};
+    mutable bool bounds_stale = true;
     std::vector<float> scratch;         // one block
   };
   const PublishedState& state_;

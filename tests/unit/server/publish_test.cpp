@@ -5,6 +5,8 @@
 // through the protocol and back to the same JSON.
 #include <linux/input.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -66,6 +68,37 @@ TEST(Published, TheReaderHoldsTheWorldsPositionsInFileOrderAndOnlyChangedBlocksM
   const std::uint64_t before = reader.serial();
   reader.sync();
   for (std::uint32_t k = 0; k < reader.blocks(0); ++k) EXPECT_LE(reader.block_serial(0, k), before);
+}
+
+TEST(Published, TheReadersBoundsFollowTheBodyAfterItMoves) {
+  sim::World<float> world(sim::SimSettings{}, 1);
+  world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
+  PublishedState state(world, 1000.0);
+  PublishedReader reader(state);
+  const auto expect_bounds = [&] {
+    std::vector<sim::Vec3f> p(world.body(0).n);
+    world.positions(0, p);
+    std::array<float, 6> want{p[0][0], p[0][1], p[0][2], p[0][0], p[0][1], p[0][2]};
+    for (const auto& v : p)
+      for (int a = 0; a < 3; ++a) {
+        want[a] = std::min(want[a], v[a]);
+        want[3 + a] = std::max(want[3 + a], v[a]);
+      }
+    const auto got = reader.bounds(0);
+    for (int a = 0; a < 6; ++a) EXPECT_EQ(got[a], want[a]) << "bound " << a;
+  };
+  expect_bounds();
+  // Pull a vertex far out: the next bounds after a sync must include it.
+  world.set_state(0, 5, {0.0, 0.3, 0.0}, {0, 0, 0});
+  std::vector<sim::Tool> tools(1);
+  tools[0].active = false;
+  for (std::uint64_t t = 0; t < 3; ++t) {
+    world.step(tools);
+    state.publish(t, world, tools, 0);
+    reader.sync();
+  }
+  expect_bounds();
+  EXPECT_GT(reader.bounds(0)[4], 0.06f);
 }
 
 struct Marking : loop::TickStages {
