@@ -421,6 +421,7 @@ TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
   r = with({"devices", "--json"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(nlohmann::json::parse(r.out).size(), 1u);
+  EXPECT_TRUE(nlohmann::json::parse(r.out)[0].contains("ff_uploads")) << r.out;
 
   r = with({"pause"});
   EXPECT_EQ(r.status, 0) << r.err;

@@ -74,7 +74,8 @@ void add_devices_command(CLI::App& app) {
           out.push_back({{"slot", d.getSlot()}, {"name", d.getName().cStr()}, {"node", d.getNode().cStr()},
                          {"vendor", fmt::format("{:04x}", d.getVendor())},
                          {"product", fmt::format("{:04x}", d.getProduct())}, {"kind", d.getKind().cStr()},
-                         {"connected", d.getConnected()}, {"ff", ff_name(d.getFf())}, {"tools", tools}});
+                         {"connected", d.getConnected()}, {"ff", ff_name(d.getFf())},
+                         {"ff_uploads", d.getFfUploads()}, {"tools", tools}});
         }
         std::cout << out.dump(2) << "\n";
         return;
@@ -86,9 +87,9 @@ void add_devices_command(CLI::App& app) {
       for (const auto d : list) {
         std::string tools;
         for (const auto t : d.getTools()) tools += (tools.empty() ? "" : ",") + std::to_string(t);
-        fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} {:<13} ff {:<8} tools {}  {}\n", d.getSlot(),
+        fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} ff {:<8} {:>6} uploads  tools {}  {}\n", d.getSlot(),
                    d.getConnected() ? (d.getNode().size() ? d.getNode().cStr() : "(recorded)") : "(unplugged)",
-                   d.getVendor(), d.getProduct(), d.getKind().cStr(), "", ff_name(d.getFf()),
+                   d.getVendor(), d.getProduct(), d.getKind().cStr(), ff_name(d.getFf()), d.getFfUploads(),
                    tools.empty() ? "-" : tools, d.getName().cStr());
       }
     });
