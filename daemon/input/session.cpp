@@ -234,10 +234,8 @@ std::optional<SessionFrame> frame_fast(std::string_view s, std::size_t devices) 
   return f;
 }
 
-}  // namespace
-
-SessionFrame frame_from_json(std::string_view line, const std::string& where, std::size_t devices) {
-  if (auto f = frame_fast(line, devices)) return std::move(*f);
+// Any frame line, through the JSON parser: every error names what is wrong.
+SessionFrame frame_checked(std::string_view line, const std::string& where, std::size_t devices) {
   json j;
   try {
     j = json::parse(line);
@@ -269,6 +267,13 @@ SessionFrame frame_from_json(std::string_view line, const std::string& where, st
                         static_cast<std::int32_t>(value)});
   }
   return f;
+}
+
+}  // namespace
+
+SessionFrame frame_from_json(std::string_view line, const std::string& where, std::size_t devices) {
+  if (auto f = frame_fast(line, devices)) return std::move(*f);
+  return frame_checked(line, where, devices);
 }
 
 SessionWriter::SessionWriter(const std::filesystem::path& file, const SessionHeader& header)
@@ -311,12 +316,13 @@ std::optional<SessionFrame> SessionReader::next() {
   while (std::getline(in_, line)) {
     ++line_;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;  // blank lines are allowed
+    // The "file:line" is formatted only for a line the fast path does not take.
+    auto where = [&] { return fmt::format("{}:{}", file_.string(), line_); };
     auto fast = frame_fast(line, header_.devices.size());
-    const std::string where = fast ? std::string() : fmt::format("{}:{}", file_.string(), line_);
-    SessionFrame f = fast ? std::move(*fast) : frame_from_json(line, where, header_.devices.size());
+    SessionFrame f = fast ? std::move(*fast) : frame_checked(line, where(), header_.devices.size());
     if (f.t_us < last_t_)
-      fail(fmt::format("{}:{}", file_.string(), line_), fmt::format("t_us {} is earlier than the previous frame's {} (frames must be in time order)",
-                              f.t_us, last_t_));
+      fail(where(), fmt::format("t_us {} is earlier than the previous frame's {} (frames must be in time order)",
+                                f.t_us, last_t_));
     last_t_ = f.t_us;
     return f;
   }
