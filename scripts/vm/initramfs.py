@@ -46,24 +46,24 @@ class ImageError(RuntimeError):
     pass
 
 
-def find_busybox() -> Path | None:
-    """A statically linked busybox (the guest has no libc of its own for it)."""
-    for c in BUSYBOX_CANDIDATES:
+def find_program(candidates: tuple[str, ...], name: str) -> Path | None:
+    """The first of the known paths that exists, else `name` on $PATH."""
+    for c in candidates:
         p = Path(c)
         if p.is_file():
             return p
-    found = shutil.which("busybox")
+    found = shutil.which(name)
     return Path(found) if found else None
+
+
+def find_busybox() -> Path | None:
+    """A statically linked busybox (the guest has no libc of its own for it)."""
+    return find_program(BUSYBOX_CANDIDATES, "busybox")
 
 
 def find_udevadm() -> Path | None:
     """systemd's udevadm (systemd-udevd is the same binary under another name)."""
-    for c in UDEVADM_CANDIDATES:
-        p = Path(c)
-        if p.is_file():
-            return p
-    found = shutil.which("udevadm")
-    return Path(found) if found else None
+    return find_program(UDEVADM_CANDIDATES, "udevadm")
 
 
 def is_elf(path: Path) -> bool:
