@@ -77,16 +77,14 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   base_substeps_.push_back(choice.substeps);
   awake_total_.push_back(awake);
   changes_.resize(total_blocks);
-  std::size_t max_blocks = 0;
-  for (const auto& body : bodies_) max_blocks = std::max<std::size_t>(max_blocks, body.blocks);
-  pe_scratch_.resize(max_blocks);
-  std::size_t max_slots = 0;
-  for (const auto& body : bodies_) max_slots = std::max<std::size_t>(max_slots, static_cast<std::size_t>(body.slots));
-  yield_mask_.resize((1 + max_slots) * (kBlock / 8));
-  std::size_t max_n = 0;
-  for (const auto& body : bodies_) max_n = std::max<std::size_t>(max_n, body.n);
-  outcode_.resize(max_n);
-  outcode_stamp_.resize(max_blocks);
+  // Scratch sized for the largest body so far (the step never allocates):
+  // only the body just added can raise a size.
+  const Body<S>& added = bodies_.back();
+  pe_scratch_.resize(std::max<std::size_t>(pe_scratch_.size(), added.blocks));
+  outcode_stamp_.resize(pe_scratch_.size());
+  outcode_.resize(std::max<std::size_t>(outcode_.size(), added.n));
+  const std::size_t mask_bytes = (1 + static_cast<std::size_t>(added.slots)) * (kBlock / 8);
+  yield_mask_.resize(std::max(yield_mask_.size(), mask_bytes));
   return static_cast<std::uint32_t>(bodies_.size() - 1);
 }
 
@@ -905,7 +903,8 @@ std::uint64_t World<S>::hash() const {
 
 template <class S>
 std::size_t World<S>::bytes() const {
-  std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + pe_scratch_.capacity() * 8;
+  std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + pe_scratch_.capacity() * 8 +
+                      yield_mask_.capacity() + outcode_.capacity() + outcode_stamp_.capacity() * sizeof(std::uint32_t);
   for (const Body<S>& b : bodies_) total += b.bytes();
   return total;
 }
