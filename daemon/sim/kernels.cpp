@@ -1047,15 +1047,9 @@ bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_li
 namespace {
 
 template <class S>
-[[gnu::always_inline]] inline std::uint8_t outcode_of(S x, S y, S z, const S* lo, const S* hi) {
-  return static_cast<std::uint8_t>((x < lo[0]) | (x > hi[0]) << 1 | (y < lo[1]) << 2 | (y > hi[1]) << 3 |
-                                   (z < lo[2]) << 4 | (z > hi[2]) << 5);
-}
-
-template <class S>
 void outcodes_scalar(const S* x, const S* y, const S* z, std::uint32_t begin, std::uint32_t end, const S* lo,
                      const S* hi, std::uint8_t* out) {
-  for (std::uint32_t i = begin; i < end; ++i) out[i] = outcode_of(x[i], y[i], z[i], lo, hi);
+  for (std::uint32_t i = begin; i < end; ++i) out[i] = outcode(x[i], y[i], z[i], lo, hi);
 }
 
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
@@ -1077,7 +1071,7 @@ __attribute__((target("avx2"))) void outcodes_avx2(const float* x, const float* 
     const __m128i w = _mm_packs_epi32(_mm256_castsi256_si128(acc), _mm256_extracti128_si256(acc, 1));
     _mm_storel_epi64(reinterpret_cast<__m128i*>(out + i), _mm_packus_epi16(w, w));
   }
-  for (std::uint32_t i = whole; i < end; ++i) out[i] = outcode_of(x[i], y[i], z[i], lo, hi);
+  for (std::uint32_t i = whole; i < end; ++i) out[i] = outcode(x[i], y[i], z[i], lo, hi);
 }
 #endif
 

@@ -110,10 +110,16 @@ bool yield_candidates(const ForceArgs<float>& a, float yield, float anchor_limit
 bool yield_candidates(const ForceArgs<double>& a, double yield, double anchor_limit, bool springs,
                       std::uint32_t begin, std::uint32_t end, std::uint8_t* mask);
 
-// Narrow phase: out[i] for i in [begin, end) gets one bit per face of the box
-// [lo, hi] that vertex i lies strictly beyond (x < lo[0]: bit 0, x > hi[0]: 1,
+// Narrow phase: a vertex's outcode has one bit per face of the box
+// [lo, hi] that it lies strictly beyond (x < lo[0]: bit 0, x > hi[0]: 1,
 // y: 2 and 3, z: 4 and 5; NaN: none). Three vertices whose codes share a bit
 // bound a triangle whose box misses [lo, hi].
+template <class S>
+[[gnu::always_inline]] inline std::uint8_t outcode(S x, S y, S z, const S* lo, const S* hi) {
+  return static_cast<std::uint8_t>((x < lo[0]) | (x > hi[0]) << 1 | (y < lo[1]) << 2 | (y > hi[1]) << 3 |
+                                   (z < lo[2]) << 4 | (z > hi[2]) << 5);
+}
+// out[i] = outcode of vertex i for i in [begin, end) (eight at a time on AVX2).
 void outcodes(const float* x, const float* y, const float* z, std::uint32_t begin, std::uint32_t end,
               const float* lo, const float* hi, std::uint8_t* out);
 void outcodes(const double* x, const double* y, const double* z, std::uint32_t begin, std::uint32_t end,

@@ -350,26 +350,19 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
     // when its three vertices lie beyond the same face of that box, i.e. when
     // their outcodes (one bit per face) share a bit. Outcodes are computed a
     // block at a time and kept current through the pushes below.
-    std::array<S, 3> box_lo, box_hi;
+    std::array<S, 3> core_lo, core_hi, box_lo, box_hi;
     for (int ax = 0; ax < 3; ++ax) {
-      box_lo[ax] = std::min(p0[ax], p1[ax]) - r - step_len;
-      box_hi[ax] = std::max(p0[ax], p1[ax]) + r + step_len;
+      core_lo[ax] = std::min(p0[ax], p1[ax]), core_hi[ax] = std::max(p0[ax], p1[ax]);
+      box_lo[ax] = core_lo[ax] - r - step_len, box_hi[ax] = core_hi[ax] + r + step_len;
     }
-    std::array<S, 3> core_lo, core_hi;
-    for (int ax = 0; ax < 3; ++ax) core_lo[ax] = std::min(p0[ax], p1[ax]), core_hi[ax] = std::max(p0[ax], p1[ax]);
     const S far = (std::max(r, step_len) + r * S(1e-3)) * S(1.01);
     const S far2 = far * far;
     std::uint8_t* const oc = outcode_.data();
-    auto code = [&](std::uint32_t i) {
-      return static_cast<std::uint8_t>((b.x[i] < box_lo[0]) | (b.x[i] > box_hi[0]) << 1 | (b.y[i] < box_lo[1]) << 2 |
-                                       (b.y[i] > box_hi[1]) << 3 | (b.z[i] < box_lo[2]) << 4 |
-                                       (b.z[i] > box_hi[2]) << 5);
-    };
     if (++outcode_epoch_ == 0) {  // wrapped: forget every stamp
       std::fill(outcode_stamp_.begin(), outcode_stamp_.end(), 0u);
       outcode_epoch_ = 1;
     }
-    auto code_block = [&](std::uint32_t blk) {  // the same bits as code(), eight at a time
+    auto code_block = [&](std::uint32_t blk) {
       kernel::outcodes(b.x.data(), b.y.data(), b.z.data(), b.begin_of(blk), b.end_of(blk), box_lo.data(),
                        box_hi.data(), oc);
       outcode_stamp_[blk] = outcode_epoch_;
@@ -440,7 +433,8 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
           if (!(w[v] > S(0))) continue;
           const S s = depth * w[v] / ww;
           push_vertex(b, tri[v], geometry::mul(dir, s), dir, tn, dts, tr);
-          oc[tri[v]] = code(tri[v]);  // its block was coded above
+          const std::uint32_t i = tri[v];  // its block was coded above
+          oc[i] = kernel::outcode(b.x[i], b.y[i], b.z[i], box_lo.data(), box_hi.data());
         }
         ++pushes;
       }
