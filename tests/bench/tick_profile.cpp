@@ -14,10 +14,12 @@
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -89,28 +91,39 @@ void print_blocks(const sim::World<float>& world, std::uint64_t tick) {
   }
 }
 
+// A whole non-negative number, or an error naming the option.
+bool parse_count(const char* option, const char* text, std::uint64_t& out) {
+  char* end = nullptr;
+  errno = 0;
+  const unsigned long long v = std::strtoull(text, &end, 10);
+  if (errno != 0 || end == text || *end != '\0' || text[0] == '-') {
+    std::fprintf(stderr, "tick_profile: %s wants a whole number, not '%s'\n", option, text);
+    return false;
+  }
+  out = v;
+  return true;
+}
+
 int usage() {
   std::fprintf(stderr, "usage: tick_profile --scene FILE --session FILE [--ticks N] [--csv FILE] [--top N] [--blocks-at TICK]\n");
   return 2;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   std::string scene_file, session_file, csv;
   std::uint64_t ticks = 30000;
-  int top = 15;
+  std::uint64_t top = 15;
   std::uint64_t blocks_at = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage();
     if (a == "--scene") scene_file = argv[++i];
     else if (a == "--session") session_file = argv[++i];
-    else if (a == "--ticks") ticks = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--csv") csv = argv[++i];
-    else if (a == "--top") top = std::atoi(argv[++i]);
-    else if (a == "--blocks-at") blocks_at = std::strtoull(argv[++i], nullptr, 10);
-    else return usage();
+    else if (a == "--ticks" || a == "--top" || a == "--blocks-at") {
+      std::uint64_t& v = a == "--ticks" ? ticks : a == "--top" ? top : blocks_at;
+      if (!parse_count(a.c_str(), argv[++i], v)) return 2;
+    } else return usage();
   }
   if (scene_file.empty() || session_file.empty()) return usage();
 
@@ -179,7 +192,7 @@ int main(int argc, char** argv) {
   std::vector<TickRecord> slow = rec;
   std::sort(slow.begin(), slow.end(), [](const TickRecord& a, const TickRecord& b) { return a.cpu_us > b.cpu_us; });
   std::printf("costliest ticks (cpu time): tick step_us cpu_us collision_us awake candidates contacts blowups faults\n");
-  for (int i = 0; i < top && i < static_cast<int>(slow.size()); ++i)
+  for (std::size_t i = 0; i < top && i < slow.size(); ++i)
     std::printf("  %llu %.1f %.1f %.1f %u %u %u %u %ld\n", static_cast<unsigned long long>(slow[i].tick),
                 slow[i].step_us, slow[i].cpu_us, slow[i].collision_us, slow[i].awake, slow[i].candidates, slow[i].contacts, slow[i].blowups,
                 slow[i].faults);
@@ -196,4 +209,15 @@ int main(int argc, char** argv) {
     std::fclose(f);
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {  // a bad scene or session file: its name and what is wrong
+    std::fprintf(stderr, "tick_profile: %s\n", e.what());
+    return 1;
+  }
 }
