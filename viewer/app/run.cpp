@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 
@@ -17,8 +18,41 @@ void install_stop_signals() {
   sigaction(SIGTERM, &sa, nullptr);
 }
 
-Run::Run(const Options& options, Source& source)
-    : options_(options), source_(source), start_(std::chrono::steady_clock::now()) {}
+using Clock = std::chrono::steady_clock;
+
+Run::Run(const Options& options, Source& source, bool show_fps)
+    : options_(options),
+      source_(source),
+      show_fps_(show_fps),
+      start_(Clock::now()),
+      fps_since_(start_),
+      next_frame_(start_),
+      period_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.fps))) {
+  if (!options_.frames_dir.empty()) std::filesystem::create_directories(options_.frames_dir);
+}
+
+void Run::wait_for_frame(bool paced) {
+  const double wait = paced ? std::chrono::duration<double>(next_frame_ - Clock::now()).count() : 0.0;
+  source_.pump(wait > 0 ? wait : 0.0);
+  next_frame_ = std::max(next_frame_ + period_, Clock::now() - period_);
+}
+
+void Run::count_frame() {
+  ++fps_frames_;
+  const double span = std::chrono::duration<double>(Clock::now() - fps_since_).count();
+  if (span >= 1.0) {
+    if (show_fps_) fps_ = static_cast<double>(fps_frames_) / span;
+    fps_frames_ = 0;
+    fps_since_ = Clock::now();
+  }
+}
+
+int Run::exit_code() const {
+  const std::string why = failure();
+  if (why.empty()) return 0;
+  fmt::print(stderr, "sculpt-view: {}\n", why);
+  return 1;
+}
 
 void Run::reset_camera(int width, int height) {
   const ViewModel& m = source_.model();
@@ -46,7 +80,7 @@ std::vector<std::string> Run::overlay() const {
 }
 
 double Run::elapsed_s() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  return std::chrono::duration<double>(Clock::now() - start_).count();
 }
 
 bool Run::snapshot_due() const {

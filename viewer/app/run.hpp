@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,13 @@ void install_stop_signals();
 
 class Run {
  public:
-  Run(const Options& options, Source& source);
+  // `show_fps`: the overlay says the frame rate (not in offline headless
+  // images, which must stay reproducible).
+  Run(const Options& options, Source& source, bool show_fps);
+
+  // Pumps the source until the next frame is due at --fps (at once when not
+  // `paced`); after a stall the pace restarts instead of bursting to catch up.
+  void wait_for_frame(bool paced = true);
 
   // Before drawing a frame: places the camera on the first state (and on R).
   void prepare(int width, int height);
@@ -31,13 +38,18 @@ class Run {
 
   // After a frame was drawn; `read` returns its pixels. Writes the sequence
   // frame and the snapshot when due. Returns false when the run is over.
+  // The pixels are read at most once per frame. Also counts the frame for the
+  // overlay's FPS.
   template <class ReadPixels>
   bool after_frame(ReadPixels&& read) {
+    count_frame();
     if (source_.has_state()) {
       ++frames_;
-      if (!options_.frames_dir.empty()) write_sequence(read());
+      std::optional<Image> image;
+      const auto pixels = [&]() -> const Image& { return image ? *image : image.emplace(read()); };
+      if (!options_.frames_dir.empty()) write_sequence(pixels());
       if (!options_.snapshot.empty() && snapshot_due()) {
-        write_snapshot(read());
+        write_snapshot(pixels());
         return false;
       }
     }
@@ -47,10 +59,11 @@ class Run {
   bool finished() const;      // the time or frame limit passed, or a stop signal
   std::string failure() const;  // why the run ended without its snapshot, or ""
   double elapsed_s() const;
-  long frames() const { return frames_; }
-  void note_fps(double fps) { fps_ = fps; }
+  // 0, or 1 after printing failure().
+  int exit_code() const;
 
  private:
+  void count_frame();
   bool snapshot_due() const;
   void write_sequence(const Image& image);
   void write_snapshot(const Image& image);
@@ -62,8 +75,11 @@ class Run {
   long frames_ = 0;
   long sequence_ = 0;
   bool snapshot_written_ = false;
+  const bool show_fps_;
   double fps_ = 0;
-  std::chrono::steady_clock::time_point start_;
+  long fps_frames_ = 0;
+  std::chrono::steady_clock::time_point start_, fps_since_, next_frame_;
+  std::chrono::steady_clock::duration period_;
 };
 
 // Both return the process exit code.

@@ -5,7 +5,6 @@
 #include <fmt/format.h>
 #include <link.h>
 
-#include <chrono>
 #include <ctime>
 #include <filesystem>
 #include <stdexcept>
@@ -121,14 +120,7 @@ int run_window(const Options& options, Source& source) {
   }
   RenderOptions render = options.render;
   Renderer renderer;
-  Run run(options, source);
-  if (!options.frames_dir.empty()) std::filesystem::create_directories(options.frames_dir);
-
-  using Clock = std::chrono::steady_clock;
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.fps));
-  auto next = Clock::now();
-  auto fps_since = Clock::now();
-  long fps_frames = 0;
+  Run run(options, source, true);
   bool dragging_orbit = false, dragging_pan = false, want_screenshot = false, quit = false;
   int width = options.width, height = options.height;
   while (!quit) {
@@ -184,9 +176,7 @@ int run_window(const Options& options, Source& source) {
           break;
       }
     }
-    const double wait = std::chrono::duration<double>(next - Clock::now()).count();
-    source.pump(wait > 0 ? wait : 0.0);
-    next = std::max(next + period, Clock::now() - period);
+    run.wait_for_frame();
     if (quit || g_stop.load()) break;
     SDL_GL_GetDrawableSize(window.window, &width, &height);
     if (width <= 0 || height <= 0) continue;
@@ -215,21 +205,9 @@ int run_window(const Options& options, Source& source) {
     }
     const bool more = run.after_frame(read);
     SDL_GL_SwapWindow(window.window);
-    ++fps_frames;
-    const double span = std::chrono::duration<double>(Clock::now() - fps_since).count();
-    if (span >= 1.0) {
-      run.note_fps(static_cast<double>(fps_frames) / span);
-      fps_frames = 0;
-      fps_since = Clock::now();
-    }
     if (!more) break;
   }
-  const std::string failure = run.failure();
-  if (!failure.empty()) {
-    fmt::print(stderr, "sculpt-view: {}\n", failure);
-    return 1;
-  }
-  return 0;
+  return run.exit_code();
 }
 
 }  // namespace sculpt::view
