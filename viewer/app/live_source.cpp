@@ -9,6 +9,7 @@
 #include <ctime>
 #include <memory>
 #include <stdexcept>
+#include <utility>
 
 #include "app/source.hpp"
 #include "client/connection.hpp"
@@ -84,12 +85,11 @@ class LiveSource final : public Source {
     try {
       io_.provider->getTimer().afterDelay(ms * kj::MILLISECONDS).wait(io_.waitScope);
     } catch (const kj::Exception& e) {
-      lost(e.getDescription().cStr());
+      lost(fmt::format("the daemon went away ({})", e.getDescription().cStr()));
     }
-    if (lost_) {
-      lost_ = false;
+    if (!lost_why_.empty()) {
       drop();
-      note_down("the daemon went away");
+      note_down(std::exchange(lost_why_, {}));
     }
     if (!fatal_.empty()) throw std::runtime_error(fatal_);
   }
@@ -152,27 +152,23 @@ class LiveSource final : public Source {
       ranges = mirror_.apply(f);
     } catch (const client::MirrorError& e) {
       // Out of step with the daemon: start over with a fresh snapshot.
-      say(fmt::format("resubscribing: {}", e.what()));
-      lost_ = true;
+      lost(fmt::format("out of step with the daemon ({}): resubscribing", e.what()));
       return;
     }
+    // model_.meshes was built in the mirror's order (on_snapshot), so a
+    // mirror index is a model index; the mirror already holds the new bounds.
     for (const auto& r : ranges) {
       const auto& mm = mirror_.meshes()[r.mesh];
-      ViewMesh* vm = model_.find_mesh(mm.id);
-      if (vm == nullptr) continue;
-      vm->set_range(r.begin, r.end,
-                    std::span<const float>(mm.positions).subspan(std::size_t{r.begin} * 3, std::size_t{r.end - r.begin} * 3));
+      model_.meshes[r.mesh].set_range(
+          r.begin, r.end,
+          std::span<const float>(mm.positions).subspan(std::size_t{r.begin} * 3, std::size_t{r.end - r.begin} * 3));
     }
-    for (const auto d : f.getMeshes()) {
-      if (ViewMesh* vm = model_.find_mesh(d.getMeshId())) {
-        const auto b = d.getBounds();
-        vm->set_bounds({{b.getMin().getX(), b.getMin().getY(), b.getMin().getZ()},
-                        {b.getMax().getX(), b.getMax().getY(), b.getMax().getZ()}});
-      }
+    for (std::size_t k = 0; k < model_.meshes.size(); ++k) {
+      model_.meshes[k].set_bounds({mirror_.meshes()[k].lo, mirror_.meshes()[k].hi});
     }
     copy_tools(model_);
     model_.sequence = mirror_.sequence();
-    if (f.getPublishedNs() > 0) lag_ms_ = static_cast<double>(monotonic_ns() - f.getPublishedNs()) * 1e-6;
+    if (mirror_.published_ns() > 0) lag_ms_ = static_cast<double>(monotonic_ns() - mirror_.published_ns()) * 1e-6;
     if (f.getHasStats()) {
       const auto s = f.getStats();
       ViewStats v;
@@ -202,14 +198,13 @@ class LiveSource final : public Source {
   void note_down(const std::string& why) {
     if (why != last_down_) say(fmt::format("{}; retrying every 0.5 s", why));
     last_down_ = why;
-    model_.connection = why;
     next_retry_ = Clock::now() + std::chrono::milliseconds(500);
   }
 
+  // Called inside the event loop; pump() drops the connection afterwards.
   void lost(const std::string& why) {
-    lost_ = true;
+    if (lost_why_.empty()) lost_why_ = why;
     last_down_.clear();
-    (void)why;
   }
 
   void copy_tools(ViewModel& m) const {
@@ -238,11 +233,12 @@ class LiveSource final : public Source {
     auto reply = client::guarded("subscribe", [&] { return req.send().wait(io_.waitScope); });
     subscription_ = reply.getSubscription();
     watch_ = c->on_disconnect()
-                 .then([this]() { lost("disconnected"); },
-                       [this](kj::Exception&& e) { lost(e.getDescription().cStr()); })
+                 .then([this]() { lost("the daemon went away"); },
+                       [this](kj::Exception&& e) {
+                         lost(fmt::format("the daemon went away ({})", e.getDescription().cStr()));
+                       })
                  .eagerlyEvaluate(nullptr);
     connection_ = std::move(c);
-    model_.connection.clear();
     last_down_.clear();
   }
 
@@ -260,7 +256,7 @@ class LiveSource final : public Source {
   proto::Subscription::Client subscription_{nullptr};
   kj::Maybe<kj::Promise<void>> watch_;
   client::MeshMirror mirror_;
-  bool lost_ = false;
+  std::string lost_why_;  // "" while connected
   std::string fatal_;
   std::string last_down_;
   Clock::time_point next_retry_{};

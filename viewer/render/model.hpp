@@ -135,7 +135,6 @@ struct ViewModel {
   std::optional<ViewStats> stats;    // the daemon's, when live
   std::uint64_t sequence = 0;        // sim tick shown
   std::uint64_t generation = 0;      // bumped on every new snapshot (GPU buffers are rebuilt)
-  std::string connection;            // "" or what the overlay should say ("no daemon: retrying")
 
   ViewMesh* find_mesh(std::uint32_t id);
   Aabb bounds_now() const;           // meshes and tools as they are
