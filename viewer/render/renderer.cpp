@@ -151,7 +151,6 @@ void set_mat4(GLuint program, const char* name, const Eigen::Matrix4f& m) {
 }  // namespace
 
 struct Renderer::GpuMesh {
-  std::uint32_t id = 0;
   gl::VertexArray vao;
   gl::VertexArray wire_vao;
   gl::Buffer positions, normals, rest, triangles, edges;
@@ -294,7 +293,6 @@ UploadStats Renderer::sync(ViewModel& model, const RenderOptions& options) {
     const auto fsize = [](std::span<const float> s) { return static_cast<GLsizeiptr>(s.size_bytes()); };
     if (k >= meshes_.size()) {
       GpuMesh g;
-      g.id = mesh.id();
       g.vao = gl::make_vertex_array();
       g.positions = gl::make_buffer();
       g.normals = gl::make_buffer();
@@ -335,9 +333,9 @@ UploadStats Renderer::sync(ViewModel& model, const RenderOptions& options) {
       glBindVertexArray(0);
     }
     if (!mesh.dirty()) continue;
-    const ViewMesh::Dirty dirty = mesh.take_dirty();
-    std::vector<Range> ranges = dirty.ranges;
-    if (dirty.all) ranges = {Range{0, static_cast<std::uint32_t>(mesh.vertex_count())}};
+    ViewMesh::Dirty dirty = mesh.take_dirty();
+    const std::vector<Range> ranges =
+        dirty.all ? std::vector<Range>{{0, static_cast<std::uint32_t>(mesh.vertex_count())}} : std::move(dirty.ranges);
     for (const auto& [buffer, data] : {std::pair{g.positions.get(), mesh.positions()}, std::pair{g.normals.get(), mesh.normals()}}) {
       glBindBuffer(GL_ARRAY_BUFFER, buffer);
       for (const Range& r : ranges) {
