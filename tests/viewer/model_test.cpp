@@ -181,6 +181,19 @@ TEST(ViewerOptions, SizeAndCameraErrorsNameTheValue) {
   EXPECT_THROW(parse_camera("30,20,-1", spec), std::invalid_argument);
 }
 
+TEST(ViewerOptions, NonFiniteNumbersAreRefusedByName) {
+  CameraSpec spec;
+  for (const char* bad : {"nan,20", "30,inf", "30,20,nan"}) {
+    try {
+      parse_camera(bad, spec);
+      FAIL() << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(parse_vec3("0,0,-inf", "--target"), std::invalid_argument);
+}
+
 TEST(ViewerPng, RoundTripAndNamedErrors) {
   const auto dir = std::filesystem::temp_directory_path() / ("viewer-png-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);

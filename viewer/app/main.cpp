@@ -16,6 +16,10 @@ int main(int argc, char** argv) {
   install_stop_signals();
   try {
     const bool display = std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
+    if (options->window && !display) {
+      fmt::print(stderr, "sculpt-view: --window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set)\n");
+      return 2;
+    }
     // Images on request are made offscreen unless a window is asked for.
     const bool headless = options->headless || !display ||
                           (!options->window && (!options->snapshot.empty() || !options->frames_dir.empty()));

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 #include <stdexcept>
@@ -18,7 +19,7 @@ std::vector<float> parse_floats(const std::string& text, const char* what) {
   while (std::getline(ss, item, ',')) {
     char* end = nullptr;
     const float v = std::strtof(item.c_str(), &end);
-    if (item.empty() || end == nullptr || *end != '\0') {
+    if (item.empty() || end == nullptr || *end != '\0' || !std::isfinite(v)) {
       throw std::invalid_argument(fmt::format("{} '{}': '{}' is not a number", what, text, item));
     }
     out.push_back(v);
