@@ -30,7 +30,6 @@
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
 #include "loop/sim_thread.hpp"
-#include "loop/scene_tools.hpp"
 #include "loop/stats_json.hpp"
 #include "loop/tool_driver.hpp"
 #include "main/log.hpp"
@@ -54,6 +53,48 @@ constexpr std::size_t kRingCapacity = 4096;                 // io → sim messag
 constexpr std::size_t kReplayRingCapacity = 16384;
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;       // duration check, replay pump, watchdog
 constexpr std::chrono::seconds kStatusEvery{5};
+
+loop::Box mesh_bounds(const scene::Scene& s) {
+  loop::Box b{{0, 0, 0}, {0, 0, 0}};
+  bool any = false;
+  for (const auto& m : s.meshes)
+    for (const auto& p : m.loaded.mesh.positions)
+      for (int a = 0; a < 3; ++a) {
+        const double v = p[a];
+        if (!any || v < b.lo[a]) b.lo[a] = v;
+        if (!any || v > b.hi[a]) b.hi[a] = v;
+        any = any || a == 2;
+      }
+  return b;
+}
+
+std::vector<loop::ToolSpec> tool_specs(const scene::Scene& s) {
+  std::vector<loop::ToolSpec> out;
+  for (const auto& t : s.tools) {
+    loop::ToolSpec spec;
+    spec.shape = t.shape == scene::ToolShape::capsule ? sim::ToolShape::capsule : sim::ToolShape::sphere;
+    spec.radius = t.radius;
+    spec.half_length = t.half_length;
+    spec.position = t.position;
+    spec.speed = t.speed;
+    out.push_back(spec);
+  }
+  return out;
+}
+
+std::vector<input::ToolRoute> tool_routes(const scene::Scene& s) {
+  std::vector<input::ToolRoute> out;
+  for (const auto& t : s.tools) {
+    input::ToolRoute r;
+    r.device = t.device;
+    r.device_name = t.device_name;
+    r.stick = t.stick == scene::Stick::right ? input::Stick::right
+              : t.stick == scene::Stick::main ? input::Stick::main
+                                              : input::Stick::left;
+    out.push_back(r);
+  }
+  return out;
+}
 
 // The tool driver moves tool component i along the scene's axis i, so the
 // binding's components are the haptics' axes.
@@ -121,14 +162,15 @@ server::SceneInfo scene_info(const scene::Scene& s, double rate_hz) {
   return info;
 }
 
-// One scene's simulation: everything a scene swap replaces at once.
+// One scene's simulation, built before anything running is touched: a
+// scene swap replaces all of it at once (with a PublishedState made by
+// install(), which needs the tick the old simulation stopped at).
 struct SimParts {
   scene::Scene scene;
   double rate = 0;
   std::size_t tools = 0;
   std::unique_ptr<sim::World<float>> world;
   std::unique_ptr<SculptStages> stages;
-  std::unique_ptr<server::PublishedState> published;
 };
 
 class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::Control {
@@ -234,15 +276,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     for (const auto& w : scene_.warnings) log::warning("scene {}: {}", scene_.file.string(), w);
     for (const auto& m : scene_.meshes)
       for (const auto& w : m.loaded.warnings) log::warning("scene {}: mesh {}: {}", scene_.file.string(), m.name, w);
-    SimParts parts = build_sim(std::move(scene_), 0);
-    install(std::move(parts));
-    stages_ = std::move(pending_stages_);
+    install(build_sim(std::move(scene_)), 0);
     log::info("scene {}: {} meshes, {} vertices, {} tools; {} Hz", scene_.file.string(), scene_.meshes.size(),
               vertices_of(scene_), tools_, rate_);
 
     // Mapping and haptics.
     mapping_ = input::parse_mapping(cfg_.mapping_table, cfg_.file.empty() ? "config" : cfg_.file);
-    router_.set_routes(loop::tool_routes(scene_));
+    router_.set_routes(tool_routes(scene_));
     haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
     haptics_->start();
 
@@ -309,9 +349,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     return n;
   }
 
-  // Builds a scene's world, stages and published state (allocates; throws
-  // naming what is wrong). Nothing running is touched.
-  SimParts build_sim(scene::Scene scene, std::uint64_t first_tick) {
+  // Builds a scene's world and stages (allocates; throws naming what is
+  // wrong). Nothing running is touched.
+  SimParts build_sim(scene::Scene scene) {
     SimParts p;
     p.rate = cfg_.rate_hz.value_or(scene.settings.rate_hz);
     sim::SimSettings settings = scene.settings;
@@ -323,30 +363,30 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     const int slots = static_cast<int>(std::max<std::size_t>(p.tools, 1));
     p.world = std::make_unique<sim::World<float>>(settings, slots);
     for (const auto& m : scene.meshes) p.world->add_body(m.loaded.mesh, scene.material_of(m));
-    const auto specs = loop::tool_specs(scene);
+    const auto specs = tool_specs(scene);
     loop::DriverLimits limits;
-    limits.bounds = loop::tool_bounds(loop::mesh_bounds(scene), specs, cfg_.tool_margin);
+    limits.bounds = loop::tool_bounds(mesh_bounds(scene), specs, cfg_.tool_margin);
     limits.size_step = cfg_.size_step;
     limits.min_scale = cfg_.min_scale;
     limits.max_scale = cfg_.max_scale;
     if (!board_) board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
     const std::size_t ring = cfg_.input.kind == InputSpec::Kind::replay ? kReplayRingCapacity : kRingCapacity;
     p.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, p.rate), *board_, ring);
-    p.published = std::make_unique<server::PublishedState>(*p.world, p.rate, first_tick);
-    p.stages->set_published(p.published.get());
     p.scene = std::move(scene);
     return p;
   }
 
-  // Takes the parts in (the sim thread must not be running); the stages wait
-  // in pending_stages_ until the caller has moved the old ring's messages.
-  void install(SimParts p) {
+  // Takes the parts in (no sim thread running; the caller has moved out
+  // whatever of the old stages and published state it still needs), with a
+  // published state whose ticks go on from first_tick.
+  void install(SimParts p, std::uint64_t first_tick) {
     scene_ = std::move(p.scene);
     rate_ = p.rate;
     tools_ = p.tools;
     world_ = std::move(p.world);
-    pending_stages_ = std::move(p.stages);
-    published_ = std::move(p.published);
+    stages_ = std::move(p.stages);
+    published_ = std::make_unique<server::PublishedState>(*world_, rate_, first_tick);
+    stages_->set_published(published_.get());
   }
 
   void start_sim(std::uint64_t first_tick, bool paused) {
@@ -371,7 +411,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::string swap_scene(scene::Scene next, const char* what) {
     SimParts parts;
     try {
-      parts = build_sim(std::move(next), sim_->ticks());
+      parts = build_sim(std::move(next));
     } catch (const std::exception& e) {
       log::warning("{}: {}; keeping the current sculpt", what, e.what());
       return e.what();
@@ -380,15 +420,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     sim_->stop();
     const std::uint64_t tick = sim_->ticks();
     sim_.reset();
-    // The new published state continues from the tick the old one reached.
-    parts.published = std::make_unique<server::PublishedState>(*parts.world, parts.rate, tick);
-    parts.stages->set_published(parts.published.get());
+    // The old stages hold the queued inputs and the bindings; viewers read
+    // the old published state until set_scene() below.
     std::unique_ptr<SculptStages> old = std::move(stages_);
     std::unique_ptr<server::PublishedState> old_published = std::move(published_);
-    install(std::move(parts));
-    stages_ = std::move(pending_stages_);
+    install(std::move(parts), tick);  // the new published state continues from the tick the old one reached
     // Devices first (as attach messages due now), then what was queued.
-    router_.set_routes(loop::tool_routes(scene_));
+    router_.set_routes(tool_routes(scene_));
     if (devices_) {
       for (const auto& [slot, info] : devices_->devices()) on_attach(slot, info);
     } else {
@@ -679,7 +717,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<input::ReplaySource> replay_;
   std::unique_ptr<input::DeviceManager> devices_;
   std::unique_ptr<server::PublishedState> published_;
-  std::unique_ptr<SculptStages> pending_stages_;   // install() → setup()/swap, briefly
   std::map<std::uint8_t, server::DeviceEntry> known_devices_;
   std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
   std::unique_ptr<server::Server> server_;
