@@ -30,6 +30,7 @@
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
 #include "loop/sim_thread.hpp"
+#include "loop/scene_tools.hpp"
 #include "loop/stats_json.hpp"
 #include "loop/tool_driver.hpp"
 #include "main/log.hpp"
@@ -53,48 +54,6 @@ constexpr std::size_t kRingCapacity = 4096;                 // io → sim messag
 constexpr std::size_t kReplayRingCapacity = 16384;
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;       // duration check, replay pump, watchdog
 constexpr std::chrono::seconds kStatusEvery{5};
-
-loop::Box mesh_bounds(const scene::Scene& s) {
-  loop::Box b{{0, 0, 0}, {0, 0, 0}};
-  bool any = false;
-  for (const auto& m : s.meshes)
-    for (const auto& p : m.loaded.mesh.positions)
-      for (int a = 0; a < 3; ++a) {
-        const double v = p[a];
-        if (!any || v < b.lo[a]) b.lo[a] = v;
-        if (!any || v > b.hi[a]) b.hi[a] = v;
-        any = any || a == 2;
-      }
-  return b;
-}
-
-std::vector<loop::ToolSpec> tool_specs(const scene::Scene& s) {
-  std::vector<loop::ToolSpec> out;
-  for (const auto& t : s.tools) {
-    loop::ToolSpec spec;
-    spec.shape = t.shape == scene::ToolShape::capsule ? sim::ToolShape::capsule : sim::ToolShape::sphere;
-    spec.radius = t.radius;
-    spec.half_length = t.half_length;
-    spec.position = t.position;
-    spec.speed = t.speed;
-    out.push_back(spec);
-  }
-  return out;
-}
-
-std::vector<input::ToolRoute> tool_routes(const scene::Scene& s) {
-  std::vector<input::ToolRoute> out;
-  for (const auto& t : s.tools) {
-    input::ToolRoute r;
-    r.device = t.device;
-    r.device_name = t.device_name;
-    r.stick = t.stick == scene::Stick::right ? input::Stick::right
-              : t.stick == scene::Stick::main ? input::Stick::main
-                                              : input::Stick::left;
-    out.push_back(r);
-  }
-  return out;
-}
 
 // The tool driver moves tool component i along the scene's axis i, so the
 // binding's components are the haptics' axes.
@@ -282,7 +241,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
     // Mapping and haptics.
     mapping_ = input::parse_mapping(cfg_.mapping_table, cfg_.file.empty() ? "config" : cfg_.file);
-    router_.set_routes(tool_routes(scene_));
+    router_.set_routes(loop::tool_routes(scene_));
     haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
     haptics_->start();
 
@@ -363,9 +322,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     const int slots = static_cast<int>(std::max<std::size_t>(p.tools, 1));
     p.world = std::make_unique<sim::World<float>>(settings, slots);
     for (const auto& m : scene.meshes) p.world->add_body(m.loaded.mesh, scene.material_of(m));
-    const auto specs = tool_specs(scene);
+    const auto specs = loop::tool_specs(scene);
     loop::DriverLimits limits;
-    limits.bounds = loop::tool_bounds(mesh_bounds(scene), specs, cfg_.tool_margin);
+    limits.bounds = loop::tool_bounds(loop::mesh_bounds(scene), specs, cfg_.tool_margin);
     limits.size_step = cfg_.size_step;
     limits.min_scale = cfg_.min_scale;
     limits.max_scale = cfg_.max_scale;
@@ -426,7 +385,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     std::unique_ptr<server::PublishedState> old_published = std::move(published_);
     install(std::move(parts), tick);  // the new published state continues from the tick the old one reached
     // Devices first (as attach messages due now), then what was queued.
-    router_.set_routes(tool_routes(scene_));
+    router_.set_routes(loop::tool_routes(scene_));
     if (devices_) {
       for (const auto& [slot, info] : devices_->devices()) on_attach(slot, info);
     } else {
