@@ -248,13 +248,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     // Input.
     if (cfg_.input.kind == InputSpec::Kind::replay) {
       replay_ = std::make_unique<input::ReplaySource>(
-          cfg_.input.replay, rate_, [this](std::uint8_t slot, const input::DeviceInfo& info) {
-            router_.detach(slot);
-            auto b = router_.attach(slot, info, mapping_);
-            for (const auto& w : router_.warnings()) log::warning("{}", w);
-            remember_device(slot, info, b);
-            return b;
-          });
+          cfg_.input.replay, rate_,
+          [this](std::uint8_t slot, const input::DeviceInfo& info) { return bind_recorded(slot, info); });
       replay_->start(1);
       replay_->pump(stages_->ring());  // as far ahead as the ring holds
       log::info("input: replaying {} ({} devices)", cfg_.input.replay.string(), replay_->header().devices.size());
@@ -300,6 +295,15 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     notify::ready(status_line());
     log::notice("sculptd ready: {} Hz, input {}, socket {}{}", rate_, to_string(cfg_.input), socket_path_,
                 listen_->activated() ? " (socket activation)" : "");
+  }
+
+  // A recorded device's binding to the current scene's tools.
+  input::DeviceBinding bind_recorded(std::uint8_t slot, const input::DeviceInfo& info) {
+    router_.detach(slot);
+    const input::DeviceBinding b = router_.attach(slot, info, mapping_);
+    for (const auto& w : router_.warnings()) log::warning("{}", w);
+    remember_device(slot, info, b);
+    return b;
   }
 
   static std::size_t vertices_of(const scene::Scene& s) {
@@ -384,13 +388,16 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     std::unique_ptr<SculptStages> old = std::move(stages_);
     std::unique_ptr<server::PublishedState> old_published = std::move(published_);
     install(std::move(parts), tick);  // the new published state continues from the tick the old one reached
-    // Devices first (as attach messages due now), then what was queued.
+    // Devices first (as attach messages due now, bound to the new scene's
+    // tools, live or recorded alike), then what was queued.
     router_.set_routes(loop::tool_routes(scene_));
     if (devices_) {
       for (const auto& [slot, info] : devices_->devices()) on_attach(slot, info);
     } else {
-      for (std::uint8_t slot = 0; slot < input::kMaxDevices; ++slot)
-        if (old->mapper().attached(slot)) push(input::InputMessage::attach(slot, old->mapper().binding(slot)), "attach");
+      const auto& recorded = replay_->header().devices;
+      for (std::uint8_t slot = 0; slot < recorded.size(); ++slot)
+        if (old->mapper().attached(slot))
+          push(input::InputMessage::attach(slot, bind_recorded(slot, recorded[slot])), "attach");
     }
     while (auto m = old->ring().try_pop()) push(*m, "queued");
     server_->set_scene(scene_info(scene_, rate_), *published_);
