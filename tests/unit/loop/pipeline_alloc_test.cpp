@@ -1,6 +1,7 @@
 // sculptd's real sim-thread stages (input ring → ControlMapper → ToolDriver,
-// World::step, FeedbackBoard) allocate nothing once the thread runs, while
-// devices attach, frames stream in and a tool presses into a mesh.
+// World::step, FeedbackBoard, the streaming server's PublishedState) allocate
+// nothing once the thread runs, while devices attach, frames stream in, the
+// loop is paused and resumed and a tool presses into a mesh.
 #include <gtest/gtest.h>
 
 #include <linux/input.h>
@@ -13,6 +14,7 @@
 #include "input/input_message.hpp"
 #include "loop/sim_thread.hpp"
 #include "main/pipeline.hpp"
+#include "server/published_state.hpp"
 #include "sim/shapes.hpp"
 #include "support/allocation_counter.hpp"
 
@@ -42,6 +44,8 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   spec.position = {0, 0.09, 0};
   spec.speed = 0.5;
   SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  server::PublishedState published(world, 1000.0);
+  stages.set_published(&published);
   Marking marking(stages);
 
   // A one-stick device driving tool 0: ABS_Y pushes the tool down (-y).
@@ -70,12 +74,19 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
     f.push({EV_SYN, SYN_REPORT, 0});
     stages.ring().try_push(input::InputMessage::of_frame(f));
     std::this_thread::sleep_for(1ms);
+    if (i == 100) {
+      EXPECT_TRUE(thread.request_pause(true));
+    } else if (i == 110) {
+      EXPECT_TRUE(thread.request_pause(false));
+    }
   }
   while (!thread.finished()) std::this_thread::sleep_for(1ms);
   thread.stop();
   EXPECT_GT(stages.applied(), 1u);
   EXPECT_GT(board.read(0).onsets, 0u) << "the tool never touched the ball";
   EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated";
+  server::PublishedReader viewer(published);
+  EXPECT_EQ(viewer.sync().tick, 600u) << "the publish stage did not reach the streaming state";
 }
 
 }  // namespace
