@@ -194,6 +194,20 @@ TEST(ViewerOptions, NonFiniteNumbersAreRefusedByName) {
   EXPECT_THROW(parse_vec3("0,0,-inf", "--target"), std::invalid_argument);
 }
 
+TEST(ViewerOptions, SnapshotIntoAMissingDirectoryIsRefusedAtOnce) {
+  std::string a0 = "sculpt-view", a1 = "--snapshot", a2 = "/nonexistent-sculpt-dir/out.png";
+  char* argv[] = {a0.data(), a1.data(), a2.data()};
+  int exit_code = 0;
+  testing::internal::CaptureStderr();
+  EXPECT_FALSE(parse_options(3, argv, exit_code).has_value());
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(exit_code, 2);
+  EXPECT_NE(err.find("/nonexistent-sculpt-dir"), std::string::npos) << err;
+  std::string b2 = "out.png";   // the current directory
+  char* ok[] = {a0.data(), a1.data(), b2.data()};
+  EXPECT_TRUE(parse_options(3, ok, exit_code).has_value());
+}
+
 TEST(ViewerPng, RoundTripAndNamedErrors) {
   const auto dir = std::filesystem::temp_directory_path() / ("viewer-png-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
