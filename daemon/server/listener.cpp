@@ -73,14 +73,11 @@ ListenSocket ListenSocket::open(const std::string& path) {
   if (fd < 0) throw fail(path, "socket()", errno);
   s.fd_ = fd;
   s.path_ = path;
-  // Group may connect, nobody else: the mode is set before anyone can connect.
-  const mode_t old = ::umask(0117);
-  const int rc = ::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
-  const int err = errno;
-  ::umask(old);
-  if (rc != 0) throw fail(path, "bind", err);
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) throw fail(path, "bind", errno);
   s.unlink_ = true;
-  ::chmod(path.c_str(), 0660);
+  // Group may connect, nobody else. Nobody can connect before listen(), so
+  // chmod here is enough (no process-wide umask flip under other threads).
+  if (::chmod(path.c_str(), 0660) != 0) throw fail(path, "chmod 0660", errno);
   if (::listen(fd, 128) != 0) throw fail(path, "listen", errno);
   return s;
 }

@@ -4,6 +4,7 @@
 // served, an old protocol is refused with a reason, an idle scene sends only
 // keep-alives, and every sculptctl command against a running daemon.
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -285,6 +286,14 @@ TEST(Stream, AClientOfAnotherMajorVersionIsRefusedWithAReason) {
   EXPECT_TRUE(d.process->wait_for_log("refused", 10s));
   client::Connection ok(io, d.socket, "current-client");  // and the daemon still serves the right one
   EXPECT_FALSE(ok.server().empty());
+}
+
+TEST(Stream, TheSocketIsForTheOwnerAndGroupOnly) {
+  Daemon d("mode", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  struct stat st {};
+  ASSERT_EQ(::stat(d.socket.c_str(), &st), 0) << d.socket;
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 0777, 0660u);
 }
 
 TEST(Stream, NoDaemonIsNamedClearly) {
