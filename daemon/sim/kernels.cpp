@@ -704,7 +704,7 @@ __attribute__((target("avx2"), always_inline)) inline std::uint32_t max_u32x8(__
 // Integrates eight vertices of a block from their forces and packs them into
 // packed_next (the tail of fused_full_block_avx2).
 struct Finish8 {
-  __m256 inv_m, dt, dt2, inv_dt, in_inv_dt;
+  __m256 inv_m, dt, dt2, in_inv_dt;
   float *X, *Y, *Z, *WX, *WY, *WZ;
   const float *RX, *RY, *RZ;
   float* packed_next;  // at the block's first record
@@ -714,7 +714,7 @@ struct Finish8 {
 template <ForceModel M, Integrator I>
 __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, std::uint32_t i, __m256 fx, __m256 fy,
                                                                   __m256 fz) {
-  const __m256 inv_m = F.inv_m, dt = F.dt, dt2 = F.dt2, inv_dt = F.inv_dt, in_inv_dt = F.in_inv_dt;
+  const __m256 inv_m = F.inv_m, dt = F.dt, dt2 = F.dt2, in_inv_dt = F.in_inv_dt;
   float* __restrict X = F.X;
   float* __restrict Y = F.Y;
   float* __restrict Z = F.Z;
@@ -752,20 +752,15 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
   F.sp_sum = _mm256_add_ps(F.sp_sum, sp);
   F.sp_max = _mm256_max_epu32(F.sp_max, _mm256_castps_si256(sp));
   // What pack_avx2 would compute from the arrays just written: for Verlet
-  // (x − w)·inv_dt with x = nx, w = ox is ux again (A.inv_dt == In.inv_dt).
+  // (x − w)·inv_dt with x = nx, w = ox is (nx − ox)·in_inv_dt, i.e. ux itself
+  // (World sets both inv_dt as 1/dts), so the velocity rows are ux, uy, uz.
   __m256 px = nx, py = ny, pz = nz;
   if constexpr (M == ForceModel::linear) {
     px = _mm256_sub_ps(nx, _mm256_load_ps(F.RX + i));
     py = _mm256_sub_ps(ny, _mm256_load_ps(F.RY + i));
     pz = _mm256_sub_ps(nz, _mm256_load_ps(F.RZ + i));
   }
-  __m256 pvx = ux, pvy = uy, pvz = uz;
-  if constexpr (I == Integrator::position_verlet) {
-    pvx = _mm256_mul_ps(_mm256_sub_ps(nx, _mm256_load_ps(WX + i)), inv_dt);
-    pvy = _mm256_mul_ps(_mm256_sub_ps(ny, _mm256_load_ps(WY + i)), inv_dt);
-    pvz = _mm256_mul_ps(_mm256_sub_ps(nz, _mm256_load_ps(WZ + i)), inv_dt);
-  }
-  store_packed8(F.packed_next + 8 * static_cast<std::size_t>(i), px, py, pz, pvx, pvy, pvz);
+  store_packed8(F.packed_next + 8 * static_cast<std::size_t>(i), px, py, pz, ux, uy, uz);
 }
 
 // A whole block (kBlock vertices) in one pass over groups of eight, with the
@@ -809,7 +804,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
   const bool extras = oe > ob;
   BlockScratch<float> w;
   __m256 pe_sum = _mm256_setzero_ps();
-  Finish8 F{inv_m, dt, dt2, inv_dt, in_inv_dt, X, Y, Z, WX, WY, WZ, RX, RY, RZ,
+  Finish8 F{inv_m, dt, dt2, in_inv_dt, X, Y, Z, WX, WY, WZ, RX, RY, RZ,
             packed_next + 8 * static_cast<std::size_t>(begin), _mm256_setzero_ps(), _mm256_setzero_si256()};
 
 

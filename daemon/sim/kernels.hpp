@@ -86,12 +86,13 @@ void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t 
 void pack(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
           std::uint32_t end);
 
-// The fused pass for one block (float, position Verlet or
-// symplectic Euler, AVX2 path): forces with neighbours from a.packed, integrate
-// in place, write the block's new state into packed_next. Same bits as
-// forces() + integrate() + pack(); skips the acceleration buffer. A whole
-// block (kBlock vertices) goes through in one pass of eight-vertex groups whose
-// state stays in registers from the anchor to the packed record.
+// The fused pass for one block (float, position Verlet or symplectic Euler,
+// AVX2 path): forces with neighbours from a.packed, integrate in place, write
+// the block's new state into packed_next. Same bits as forces() + integrate()
+// + pack() when a.inv_dt == in.inv_dt (World passes 1/dt to both, so the
+// packed velocities are the integrator's own); skips the acceleration buffer.
+// A whole block (kBlock vertices) goes through in one pass of eight-vertex
+// groups whose state stays in registers from the anchor to the packed record.
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                   std::uint32_t oe, float* packed_next, float& potential);
