@@ -195,17 +195,18 @@ TEST(ViewerOptions, NonFiniteNumbersAreRefusedByName) {
 }
 
 TEST(ViewerOptions, SnapshotIntoAMissingDirectoryIsRefusedAtOnce) {
-  std::string a0 = "sculpt-view", a1 = "--snapshot", a2 = "/nonexistent-sculpt-dir/out.png";
-  char* argv[] = {a0.data(), a1.data(), a2.data()};
-  int exit_code = 0;
-  testing::internal::CaptureStderr();
-  EXPECT_FALSE(parse_options(3, argv, exit_code).has_value());
-  const std::string err = testing::internal::GetCapturedStderr();
-  EXPECT_EQ(exit_code, 2);
-  EXPECT_NE(err.find("/nonexistent-sculpt-dir"), std::string::npos) << err;
-  std::string b2 = "out.png";   // the current directory
-  char* ok[] = {a0.data(), a1.data(), b2.data()};
-  EXPECT_TRUE(parse_options(3, ok, exit_code).has_value());
+  Options o;
+  o.snapshot = "/nonexistent-sculpt-dir/out.png";
+  try {
+    check_outputs(o);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-sculpt-dir/out.png"), std::string::npos) << e.what();
+  }
+  o.snapshot = "out.png";   // the current directory
+  EXPECT_NO_THROW(check_outputs(o));
+  o.snapshot.clear();
+  EXPECT_NO_THROW(check_outputs(o));
 }
 
 TEST(ViewerPng, RoundTripAndNamedErrors) {

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
       return 2;
     }
 #endif
+    check_outputs(*options);
     auto source = options->scene.empty() ? make_live_source(*options) : make_offline_source(options->scene);
     if (headless) return run_headless(*options, *source);
 #ifdef SCULPT_VIEW_HAVE_SDL

@@ -59,6 +59,13 @@ std::array<float, 3> parse_vec3(const std::string& text, const char* what) {
   return {v[0], v[1], v[2]};
 }
 
+void check_outputs(const Options& o) {
+  const auto dir = std::filesystem::path(o.snapshot).parent_path();
+  if (!o.snapshot.empty() && !dir.empty() && !std::filesystem::is_directory(dir)) {
+    throw std::runtime_error(fmt::format("{}: cannot write: no directory {}", o.snapshot, dir.string()));
+  }
+}
+
 std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
   Options o;
   CLI::App app{"sculpt-view: watch sculptd's meshes (headless PNGs or a window)"};
@@ -106,11 +113,6 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
     if (after_seconds >= 0) o.after_seconds = after_seconds;
     if (o.headless && o.window) throw std::invalid_argument("--headless and --window exclude each other");
     if (!o.scene.empty() && !o.socket.empty()) throw std::invalid_argument("--scene (offline) and --socket exclude each other");
-    // Found out now, not after the run it was meant to record.
-    if (const auto dir = std::filesystem::path(o.snapshot).parent_path(); !o.snapshot.empty() && !dir.empty() &&
-                                                                          !std::filesystem::is_directory(dir)) {
-      throw std::invalid_argument(fmt::format("--snapshot '{}': no directory '{}'", o.snapshot, dir.string()));
-    }
   } catch (const CLI::ParseError& e) {
     exit_code = app.exit(e) == 0 ? 0 : 2;   // --help/--version: 0; usage errors: 2
     return std::nullopt;

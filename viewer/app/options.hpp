@@ -38,6 +38,9 @@ struct Options {
 // Parses argv; on --help/--version or an error prints and returns the exit
 // code to use (0 or 2) in `exit_code` and nullopt.
 std::optional<Options> parse_options(int argc, char** argv, int& exit_code);
+// Before the run: throws std::runtime_error naming a --snapshot whose
+// directory is missing, found now rather than after the run it was to record.
+void check_outputs(const Options& options);
 
 // "1280x720" -> {1280, 720}; throws std::invalid_argument naming the value.
 std::pair<int, int> parse_size(const std::string& text);
