@@ -457,6 +457,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     std::vector<server::DeviceEntry> out;
     for (const auto& [slot, d] : known_devices_) {
       out.push_back(d);
+      static_assert(haptics::HapticsStats::kSlots >= input::kMaxDevices, "a device slot without an FF counter");
       if (haptics_ && slot < haptics::HapticsStats::kSlots)
         out.back().ff_uploads = haptics_->stats().slot_uploads[slot].load(std::memory_order_relaxed);
     }
