@@ -124,13 +124,12 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz, &b.ax, &b.ay, &b.az, &b.sx, &b.sy,
                     &b.sz})
     buf->resize(n);
-  const bool stored_velocity = false;  // World fixes w for its integrator at attach time
-  (void)stored_velocity;
-  for (std::uint32_t i = 0; i < n; ++i) {
+  for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
     const Vec3f& p = mesh.positions[b.to_original[i]];
-    b.x[i] = b.wx[i] = b.rx[i] = b.sx[i] = static_cast<S>(p[0]);
-    b.y[i] = b.wy[i] = b.ry[i] = b.sy[i] = static_cast<S>(p[1]);
-    b.z[i] = b.wz[i] = b.rz[i] = b.sz[i] = static_cast<S>(p[2]);
+    b.x[i] = b.rx[i] = b.sx[i] = static_cast<S>(p[0]);
+    b.y[i] = b.ry[i] = b.sy[i] = static_cast<S>(p[1]);
+    b.z[i] = b.rz[i] = b.sz[i] = static_cast<S>(p[2]);
+    b.wx[i] = b.wy[i] = b.wz[i] = S(0);
   }
 
   // --- springs: ELL + overflow ------------------------------------------------

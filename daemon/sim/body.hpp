@@ -73,7 +73,7 @@ struct Body {
   std::vector<std::uint32_t> to_internal;  // original → internal
 
   AlignedBuffer<S> x, y, z;     // positions
-  AlignedBuffer<S> wx, wy, wz;  // previous positions (position Verlet) or velocities
+  AlignedBuffer<S> wx, wy, wz;  // last steps x − x_prev (position Verlet) or velocities
   AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
   AlignedBuffer<S> ax, ay, az;  // accelerations (between force and integrate passes)
   AlignedBuffer<S> sx, sy, sz;  // last good positions (the blow-up guard restores these)

@@ -121,10 +121,10 @@ template <class S, Velocity V>
   for (std::uint32_t i = 0; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
     S ux, uy, uz;
-    if constexpr (V == Velocity::backward_difference) {
-      ux = (X[v] - WX[v]) * inv_dt;
-      uy = (Y[v] - WY[v]) * inv_dt;
-      uz = (Z[v] - WZ[v]) * inv_dt;
+    if constexpr (V == Velocity::step) {
+      ux = WX[v] * inv_dt;
+      uy = WY[v] * inv_dt;
+      uz = WZ[v] * inv_dt;
     } else {
       ux = WX[v];
       uy = WY[v];
@@ -163,10 +163,10 @@ template <class S, ForceModel M, Velocity V>
       const std::uint32_t v = begin + i;
       const std::int32_t j = nb[i];
       S ujx, ujy, ujz;
-      if constexpr (V == Velocity::backward_difference) {
-        ujx = (X[j] - WX[j]) * inv_dt;
-        ujy = (Y[j] - WY[j]) * inv_dt;
-        ujz = (Z[j] - WZ[j]) * inv_dt;
+      if constexpr (V == Velocity::step) {
+        ujx = WX[j] * inv_dt;
+        ujy = WY[j] * inv_dt;
+        ujz = WZ[j] * inv_dt;
       } else {
         ujx = WX[j];
         ujy = WY[j];
@@ -214,10 +214,10 @@ template <class S, ForceModel M, Velocity V, bool FromPacked>
       xj = q[0], yj = q[1], zj = q[2], ujx = q[4], ujy = q[5], ujz = q[6];
     } else {
       xj = X[j], yj = Y[j], zj = Z[j];
-      if constexpr (V == Velocity::backward_difference) {
-        ujx = (X[j] - WX[j]) * inv_dt;
-        ujy = (Y[j] - WY[j]) * inv_dt;
-        ujz = (Z[j] - WZ[j]) * inv_dt;
+      if constexpr (V == Velocity::step) {
+        ujx = WX[j] * inv_dt;
+        ujy = WY[j] * inv_dt;
+        ujz = WZ[j] * inv_dt;
       } else {
         ujx = WX[j];
         ujy = WY[j];
@@ -268,12 +268,12 @@ template <class S>
                                                 std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                 std::uint32_t oe) {
   if (model == ForceModel::spring) {
-    return vel == Velocity::backward_difference
-               ? forces_impl<S, ForceModel::spring, Velocity::backward_difference>(a, begin, end, ob, oe)
+    return vel == Velocity::step
+               ? forces_impl<S, ForceModel::spring, Velocity::step>(a, begin, end, ob, oe)
                : forces_impl<S, ForceModel::spring, Velocity::stored>(a, begin, end, ob, oe);
   }
-  return vel == Velocity::backward_difference
-             ? forces_impl<S, ForceModel::linear, Velocity::backward_difference>(a, begin, end, ob, oe)
+  return vel == Velocity::step
+             ? forces_impl<S, ForceModel::linear, Velocity::step>(a, begin, end, ob, oe)
              : forces_impl<S, ForceModel::linear, Velocity::stored>(a, begin, end, ob, oe);
 }
 
@@ -289,19 +289,22 @@ template <class S, Integrator I>
   for (std::uint32_t i = 0; i < cnt; ++i) {
     S ux, uy, uz;
     if constexpr (I == Integrator::position_verlet) {
-      const S ox = X[i], oy = Y[i], oz = Z[i];
-      const S nx = ox + (ox - WX[i]) + AX[i] * dt2;
-      const S ny = oy + (oy - WY[i]) + AY[i] * dt2;
-      const S nz = oz + (oz - WZ[i]) + AZ[i] * dt2;
-      WX[i] = ox;
-      WY[i] = oy;
-      WZ[i] = oz;
-      X[i] = nx;
-      Y[i] = ny;
-      Z[i] = nz;
-      ux = (nx - ox) * inv_dt;
-      uy = (ny - oy) * inv_dt;
-      uz = (nz - oz) * inv_dt;
+      // x' = 2x − x_prev + a dt² kept as its step d = x − x_prev: d' = d + a dt²,
+      // x' = x + d'. Same recurrence, but the velocity is never a difference
+      // of two nearby positions, so float keeps its digits (the lab measured
+      // the x_prev form 7% off the error/cost front at the default tick).
+      const S dx = WX[i] + AX[i] * dt2;
+      const S dy = WY[i] + AY[i] * dt2;
+      const S dz = WZ[i] + AZ[i] * dt2;
+      WX[i] = dx;
+      WY[i] = dy;
+      WZ[i] = dz;
+      X[i] = X[i] + dx;
+      Y[i] = Y[i] + dy;
+      Z[i] = Z[i] + dz;
+      ux = dx * inv_dt;
+      uy = dy * inv_dt;
+      uz = dz * inv_dt;
     } else if constexpr (I == Integrator::symplectic_euler) {
       ux = WX[i] + AX[i] * dt;
       uy = WY[i] + AY[i] * dt;
@@ -492,12 +495,12 @@ __attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>&
                                                          std::uint32_t oe) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
-  const bool bd = vel == Velocity::backward_difference;
+  const bool bd = vel == Velocity::step;
   if (model == ForceModel::spring) {
-    if (bd) forces_avx2_block<ForceModel::spring, Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::spring, Velocity::step>(A, begin, cnt, ob, oe, w);
     else forces_avx2_block<ForceModel::spring, Velocity::stored>(A, begin, cnt, ob, oe, w);
   } else {
-    if (bd) forces_avx2_block<ForceModel::linear, Velocity::backward_difference>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::linear, Velocity::step>(A, begin, cnt, ob, oe, w);
     else forces_avx2_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
   }
   return write_acc<float>(A, begin, cnt, w);
@@ -557,10 +560,10 @@ template <Velocity V, ForceModel M>
     if constexpr (M == ForceModel::linear) q[0] = A.x[i] - A.rx[i], q[1] = A.y[i] - A.ry[i], q[2] = A.z[i] - A.rz[i];
     else q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i];
     q[3] = 0.0f;
-    if constexpr (V == Velocity::backward_difference) {
-      q[4] = (A.x[i] - A.wx[i]) * A.inv_dt;
-      q[5] = (A.y[i] - A.wy[i]) * A.inv_dt;
-      q[6] = (A.z[i] - A.wz[i]) * A.inv_dt;
+    if constexpr (V == Velocity::step) {
+      q[4] = A.wx[i] * A.inv_dt;
+      q[5] = A.wy[i] * A.inv_dt;
+      q[6] = A.wz[i] * A.inv_dt;
     } else {
       q[4] = A.wx[i], q[5] = A.wy[i], q[6] = A.wz[i];
     }
@@ -613,10 +616,10 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
       oz = _mm256_sub_ps(z, _mm256_loadu_ps(A.rz + i));
     }
     __m256 vx, vy, vz;
-    if constexpr (V == Velocity::backward_difference) {
-      vx = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_loadu_ps(A.wx + i)), inv_dt);
-      vy = _mm256_mul_ps(_mm256_sub_ps(y, _mm256_loadu_ps(A.wy + i)), inv_dt);
-      vz = _mm256_mul_ps(_mm256_sub_ps(z, _mm256_loadu_ps(A.wz + i)), inv_dt);
+    if constexpr (V == Velocity::step) {
+      vx = _mm256_mul_ps(_mm256_loadu_ps(A.wx + i), inv_dt);
+      vy = _mm256_mul_ps(_mm256_loadu_ps(A.wy + i), inv_dt);
+      vz = _mm256_mul_ps(_mm256_loadu_ps(A.wz + i), inv_dt);
     } else {
       vx = _mm256_loadu_ps(A.wx + i), vy = _mm256_loadu_ps(A.wy + i), vz = _mm256_loadu_ps(A.wz + i);
     }
@@ -630,19 +633,19 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
 
 void pack(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
           std::uint32_t end) {
-  const bool bd = vel == Velocity::backward_difference, lin = model == ForceModel::linear;
+  const bool bd = vel == Velocity::step, lin = model == ForceModel::linear;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   const bool avx2 = g_has_avx2;
   if (avx2) {
-    if (bd && !lin) pack_avx2<Velocity::backward_difference, ForceModel::spring>(A, packed, begin, end);
-    else if (bd) pack_avx2<Velocity::backward_difference, ForceModel::linear>(A, packed, begin, end);
+    if (bd && !lin) pack_avx2<Velocity::step, ForceModel::spring>(A, packed, begin, end);
+    else if (bd) pack_avx2<Velocity::step, ForceModel::linear>(A, packed, begin, end);
     else if (!lin) pack_avx2<Velocity::stored, ForceModel::spring>(A, packed, begin, end);
     else pack_avx2<Velocity::stored, ForceModel::linear>(A, packed, begin, end);
     return;
   }
 #endif
-  if (bd && !lin) pack_loop<Velocity::backward_difference, ForceModel::spring>(A, packed, begin, end);
-  else if (bd) pack_loop<Velocity::backward_difference, ForceModel::linear>(A, packed, begin, end);
+  if (bd && !lin) pack_loop<Velocity::step, ForceModel::spring>(A, packed, begin, end);
+  else if (bd) pack_loop<Velocity::step, ForceModel::linear>(A, packed, begin, end);
   else if (!lin) pack_loop<Velocity::stored, ForceModel::spring>(A, packed, begin, end);
   else pack_loop<Velocity::stored, ForceModel::linear>(A, packed, begin, end);
 }
@@ -724,16 +727,18 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
   const __m256 ax = _mm256_mul_ps(fx, inv_m), ay = _mm256_mul_ps(fy, inv_m), az = _mm256_mul_ps(fz, inv_m);
   __m256 ux, uy, uz, nx, ny, nz;
   if constexpr (I == Integrator::position_verlet) {
-    const __m256 ox = _mm256_load_ps(X + i), oy = _mm256_load_ps(Y + i), oz = _mm256_load_ps(Z + i);
-    nx = _mm256_add_ps(_mm256_add_ps(ox, _mm256_sub_ps(ox, _mm256_load_ps(WX + i))), _mm256_mul_ps(ax, dt2));
-    ny = _mm256_add_ps(_mm256_add_ps(oy, _mm256_sub_ps(oy, _mm256_load_ps(WY + i))), _mm256_mul_ps(ay, dt2));
-    nz = _mm256_add_ps(_mm256_add_ps(oz, _mm256_sub_ps(oz, _mm256_load_ps(WZ + i))), _mm256_mul_ps(az, dt2));
-    _mm256_store_ps(WX + i, ox);
-    _mm256_store_ps(WY + i, oy);
-    _mm256_store_ps(WZ + i, oz);
-    ux = _mm256_mul_ps(_mm256_sub_ps(nx, ox), in_inv_dt);
-    uy = _mm256_mul_ps(_mm256_sub_ps(ny, oy), in_inv_dt);
-    uz = _mm256_mul_ps(_mm256_sub_ps(nz, oz), in_inv_dt);
+    const __m256 dx = _mm256_add_ps(_mm256_load_ps(WX + i), _mm256_mul_ps(ax, dt2));
+    const __m256 dy = _mm256_add_ps(_mm256_load_ps(WY + i), _mm256_mul_ps(ay, dt2));
+    const __m256 dz = _mm256_add_ps(_mm256_load_ps(WZ + i), _mm256_mul_ps(az, dt2));
+    _mm256_store_ps(WX + i, dx);
+    _mm256_store_ps(WY + i, dy);
+    _mm256_store_ps(WZ + i, dz);
+    nx = _mm256_add_ps(_mm256_load_ps(X + i), dx);
+    ny = _mm256_add_ps(_mm256_load_ps(Y + i), dy);
+    nz = _mm256_add_ps(_mm256_load_ps(Z + i), dz);
+    ux = _mm256_mul_ps(dx, in_inv_dt);
+    uy = _mm256_mul_ps(dy, in_inv_dt);
+    uz = _mm256_mul_ps(dz, in_inv_dt);
   } else {  // symplectic Euler
     ux = _mm256_add_ps(_mm256_load_ps(WX + i), _mm256_mul_ps(ax, dt));
     uy = _mm256_add_ps(_mm256_load_ps(WY + i), _mm256_mul_ps(ay, dt));
@@ -752,8 +757,8 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
   F.sp_sum = _mm256_add_ps(F.sp_sum, sp);
   F.sp_max = _mm256_max_epu32(F.sp_max, _mm256_castps_si256(sp));
   // What pack_avx2 would compute from the arrays just written: for Verlet
-  // (x − w)·inv_dt with x = nx, w = ox is (nx − ox)·in_inv_dt, i.e. ux itself
-  // (World sets both inv_dt as 1/dts), so the velocity rows are ux, uy, uz.
+  // w·inv_dt with w = d is ux itself (World sets both inv_dt as 1/dts), so
+  // the velocity rows are ux, uy, uz.
   __m256 px = nx, py = ny, pz = nz;
   if constexpr (M == ForceModel::linear) {
     px = _mm256_sub_ps(nx, _mm256_load_ps(F.RX + i));
@@ -811,10 +816,10 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
   for (std::uint32_t i = 0; i < kBlock; i += 8) {
     const __m256 x = _mm256_load_ps(X + i), y = _mm256_load_ps(Y + i), z = _mm256_load_ps(Z + i);
     __m256 vx, vy, vz;
-    if constexpr (V == Velocity::backward_difference) {
-      vx = _mm256_mul_ps(_mm256_sub_ps(x, _mm256_load_ps(WX + i)), inv_dt);
-      vy = _mm256_mul_ps(_mm256_sub_ps(y, _mm256_load_ps(WY + i)), inv_dt);
-      vz = _mm256_mul_ps(_mm256_sub_ps(z, _mm256_load_ps(WZ + i)), inv_dt);
+    if constexpr (V == Velocity::step) {
+      vx = _mm256_mul_ps(_mm256_load_ps(WX + i), inv_dt);
+      vy = _mm256_mul_ps(_mm256_load_ps(WY + i), inv_dt);
+      vz = _mm256_mul_ps(_mm256_load_ps(WZ + i), inv_dt);
     } else {
       vx = _mm256_load_ps(WX + i), vy = _mm256_load_ps(WY + i), vz = _mm256_load_ps(WZ + i);
     }
@@ -859,7 +864,7 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                   std::uint32_t oe, float* packed_next, float& potential) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  constexpr auto BD = Velocity::backward_difference;
+  constexpr auto BD = Velocity::step;
   constexpr auto ST = Velocity::stored;
   constexpr auto PV = Integrator::position_verlet;
   constexpr auto SE = Integrator::symplectic_euler;
@@ -883,7 +888,7 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
 #endif
   // Not reachable when packed_path_active(); keep it correct anyway (unfused order).
   const Velocity vel =
-      integrator == Integrator::position_verlet ? Velocity::backward_difference : Velocity::stored;
+      integrator == Integrator::position_verlet ? Velocity::step : Velocity::stored;
   potential = forces(a, model, vel, begin, end, ob, oe);
   const BlockSums<float> sums = integrate(in, integrator, begin, end);
   pack(a, model, vel, packed_next, begin, end);

@@ -25,15 +25,14 @@ struct Overflow {
   S rest_length;
 };
 
-// How the damper sees a vertex's velocity: position Verlet keeps the previous
-// position (v = (x − x_prev)/dt, a backward difference); the other integrators
-// keep the velocity itself.
-enum class Velocity { backward_difference, stored };
+// What the w arrays hold: position Verlet keeps its last step d = x − x_prev
+// (velocity d/dt); the other integrators keep the velocity itself.
+enum class Velocity { step, stored };
 
 template <class S>
 struct ForceArgs {
   const S *x, *y, *z;     // positions
-  const S *wx, *wy, *wz;  // previous positions or velocities (see Velocity)
+  const S *wx, *wy, *wz;  // last steps or velocities (see Velocity)
   const S *rx, *ry, *rz;  // rest positions
   const std::int32_t* nbr;
   const S* rest_length;   // ELL rest lengths (spring model), same layout as nbr

@@ -56,11 +56,6 @@ template <class S>
 std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options) {
   Body<S> b = make_body<S>(mesh, material, options, static_cast<int>(tool_slots_));
   const SubstepChoice choice = choose_substeps_for_degree(b.max_degree, material, settings_);
-  if (settings_.integrator != Integrator::position_verlet) {
-    std::fill_n(b.wx.data(), b.n, S(0));
-    std::fill_n(b.wy.data(), b.n, S(0));
-    std::fill_n(b.wz.data(), b.n, S(0));
-  }
   const double g = material.gravity ? norm(settings_.gravity) : 0.0;
   const double m = material.mass;
   b.energy_floor = b.n * m * (0.5 * 0.05 * 0.05 + g * b.extent) +
@@ -276,9 +271,9 @@ void World<S>::pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt) {
     else q[0] = b.x[i], q[1] = b.y[i], q[2] = b.z[i];
     q[3] = S(0);
     if (settings_.integrator == Integrator::position_verlet) {
-      q[4] = (b.x[i] - b.wx[i]) * inv_dt;
-      q[5] = (b.y[i] - b.wy[i]) * inv_dt;
-      q[6] = (b.z[i] - b.wz[i]) * inv_dt;
+      q[4] = b.wx[i] * inv_dt;
+      q[5] = b.wy[i] * inv_dt;
+      q[6] = b.wz[i] * inv_dt;
     } else {
       q[4] = b.wx[i], q[5] = b.wy[i], q[6] = b.wz[i];
     }
@@ -288,13 +283,10 @@ void World<S>::pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt) {
 
 template <class S>
 void World<S>::apply_pins(Body<S>& b, std::uint32_t blk, S inv_dt) {
-  const bool verlet = settings_.integrator == Integrator::position_verlet;
   for (std::uint32_t p = b.pinned_begin[blk]; p < b.pinned_begin[blk + 1]; ++p) {
     const Pinned<S>& pin = b.pinned[p];
     b.x[pin.i] = pin.x, b.y[pin.i] = pin.y, b.z[pin.i] = pin.z;
-    b.wx[pin.i] = verlet ? pin.x : S(0);
-    b.wy[pin.i] = verlet ? pin.y : S(0);
-    b.wz[pin.i] = verlet ? pin.z : S(0);
+    b.wx[pin.i] = b.wy[pin.i] = b.wz[pin.i] = S(0);  // no step, no velocity
     pack_vertex(b, pin.i, inv_dt);  // neighbours gathering from the packed buffer see the pin too
   }
 }
@@ -310,13 +302,12 @@ void World<S>::push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& 
   const bool verlet = settings_.integrator == Integrator::position_verlet;
   // Inelastic contact: keep the tangential velocity, and never let the normal
   // velocity be slower than the tool's (no bounce, no sticking inside).
-  V3<S> v = verlet ? V3<S>{(b.x[i] - b.wx[i]) / dts, (b.y[i] - b.wy[i]) / dts, (b.z[i] - b.wz[i]) / dts}
-                   : V3<S>{b.wx[i], b.wy[i], b.wz[i]};
+  V3<S> v = verlet ? V3<S>{b.wx[i] / dts, b.wy[i] / dts, b.wz[i] / dts} : V3<S>{b.wx[i], b.wy[i], b.wz[i]};
   const S vn = geometry::dot(v, normal);
   if (vn < tool_normal_speed) v = geometry::add(v, geometry::mul(normal, tool_normal_speed - vn));
   b.x[i] += delta[0], b.y[i] += delta[1], b.z[i] += delta[2];
   if (verlet) {
-    b.wx[i] = b.x[i] - v[0] * dts, b.wy[i] = b.y[i] - v[1] * dts, b.wz[i] = b.z[i] - v[2] * dts;
+    b.wx[i] = v[0] * dts, b.wy[i] = v[1] * dts, b.wz[i] = v[2] * dts;
   } else {
     b.wx[i] = v[0], b.wy[i] = v[1], b.wz[i] = v[2];
   }
@@ -471,11 +462,8 @@ template <class S>
 void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
   BlockState<S>& s = b.block[blk];
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
-  const bool verlet = settings_.integrator == Integrator::position_verlet;
   for (std::uint32_t i = b0; i < b1; ++i) {
-    b.wx[i] = verlet ? b.x[i] : S(0);
-    b.wy[i] = verlet ? b.y[i] : S(0);
-    b.wz[i] = verlet ? b.z[i] : S(0);
+    b.wx[i] = b.wy[i] = b.wz[i] = S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
     pack_vertex(b, i, S(1));  // at rest: velocity 0 whatever the dt
   }
@@ -507,12 +495,9 @@ void World<S>::snapshot(Body<S>& b, std::uint32_t blk) {
 
 template <class S>
 void World<S>::restore(Body<S>& b) {
-  const bool verlet = settings_.integrator == Integrator::position_verlet;
   for (std::uint32_t i = 0; i < b.n; ++i) {
     b.x[i] = b.sx[i], b.y[i] = b.sy[i], b.z[i] = b.sz[i];
-    b.wx[i] = verlet ? b.x[i] : S(0);
-    b.wy[i] = verlet ? b.y[i] : S(0);
-    b.wz[i] = verlet ? b.z[i] : S(0);
+    b.wx[i] = b.wy[i] = b.wz[i] = S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
   }
   if (b.plastic) {
@@ -658,7 +643,7 @@ void World<S>::step_body(std::uint32_t bi) {
   fa.packed = b.packed[0].empty() ? nullptr : b.packed[b.packed_cur].data();
   kernel::IntegrateArgs<S> ia{b.x.data(), b.y.data(), b.z.data(), b.wx.data(), b.wy.data(), b.wz.data(),
                               b.ax.data(), b.ay.data(), b.az.data(), dts, S(1) / dts};
-  const kernel::Velocity vel = verlet ? kernel::Velocity::backward_difference : kernel::Velocity::stored;
+  const kernel::Velocity vel = verlet ? kernel::Velocity::step : kernel::Velocity::stored;
   const S kg = static_cast<S>(m.grab_stiffness), inv_m = static_cast<S>(1.0 / m.mass);
 
   // Nothing a hand does moves a vertex at ten times the fastest tool: that is divergence.
@@ -859,9 +844,9 @@ void World<S>::set_state(std::size_t bi, std::uint32_t original, const Vec3d& p,
   const double dts = 1.0 / settings_.rate_hz / substeps(bi);
   b.x[k] = static_cast<S>(p[0]), b.y[k] = static_cast<S>(p[1]), b.z[k] = static_cast<S>(p[2]);
   if (settings_.integrator == Integrator::position_verlet) {
-    b.wx[k] = static_cast<S>(p[0] - v[0] * dts);
-    b.wy[k] = static_cast<S>(p[1] - v[1] * dts);
-    b.wz[k] = static_cast<S>(p[2] - v[2] * dts);
+    b.wx[k] = static_cast<S>(v[0] * dts);
+    b.wy[k] = static_cast<S>(v[1] * dts);
+    b.wz[k] = static_cast<S>(v[2] * dts);
   } else {
     b.wx[k] = static_cast<S>(v[0]), b.wy[k] = static_cast<S>(v[1]), b.wz[k] = static_cast<S>(v[2]);
   }
