@@ -252,7 +252,9 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   if constexpr (std::is_same_v<S, float>) {
-    if (n <= kPackedMaxVertices) {
+    const bool want = options.packed == PackedRecords::always ||
+                      (options.packed == PackedRecords::by_size && n <= kPackedMaxVertices);
+    if (want) {
       for (auto& buf : b.packed) {
         buf.resize(8 * static_cast<std::size_t>(n));  // zeros: at rest the velocity and (linear) u are 0
         if (spring_model)

@@ -16,9 +16,14 @@
 
 namespace sculpt::sim {
 
+// The packed neighbour records of the AVX2 path (float only): 64 bytes per
+// vertex for a faster step (docs/simulation.md has the measurements).
+enum class PackedRecords { by_size, always, never };
+
 struct BodyOptions {
   std::vector<std::uint32_t> pinned;  // original vertex indices held at their rest position
   int max_grabbed = 4096;             // per tool: vertices one grab can hold (preallocated)
+  PackedRecords packed = PackedRecords::by_size;
 };
 
 template <class S>

@@ -39,10 +39,19 @@ struct Options {
   std::string precision = "float";
   std::string tool = "sphere";
   std::string impl = "both";
+  std::string records = "auto";  // packed neighbour records: auto (by size) | on | off
   int steps = 100;
   int repeats = 5;
   bool json = false;
 };
+
+sim::BodyOptions body_options(const Options& o) {
+  sim::BodyOptions bo;
+  bo.packed = o.records == "on"    ? sim::PackedRecords::always
+              : o.records == "off" ? sim::PackedRecords::never
+                                   : sim::PackedRecords::by_size;
+  return bo;
+}
 
 // Where the tool presses: above the highest vertex, a fraction of the mesh's size.
 struct Press {
@@ -81,14 +90,15 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   // Kernel throughput: the whole mesh awake (sleeping off), a tool pressing in.
   sim::SimSettings awake_settings;
   awake_settings.sleep_speed = 0.0;
+  const sim::BodyOptions bo = body_options(o);
   sim::World<S> world(awake_settings, 1);
-  world.add_body(mesh, material);
+  world.add_body(mesh, material, bo);
   world.wake_all(0);
   // The realistic scene: sleeping on, the tool sculpting one spot; and the same scene idle.
   sim::World<S> sculpt(sim::SimSettings{}, 1);
-  sculpt.add_body(mesh, material);
+  sculpt.add_body(mesh, material, bo);
   sim::World<S> idle(sim::SimSettings{}, 1);
-  idle.add_body(mesh, material);
+  idle.add_body(mesh, material, bo);
 
   const bool tool = o.tool == "sphere";
   long tick = 0, base_tick = 0;
@@ -181,7 +191,7 @@ long child_peak_rss(const Options& o) {
       if (o.model == "linear") material.model = sim::ForceModel::linear;
       const Press press(mesh);
       auto run = [&](auto world) {
-        world.add_body(mesh, material);
+        world.add_body(mesh, material, body_options(o));
         for (long t = 0; t < 50; ++t) {
           const sim::Tool tl = press.at(t);
           world.step({&tl, 1});
@@ -282,6 +292,8 @@ Command add_throughput(CLI::App& app) {
   tp->add_option("--steps", o.steps, "timed ticks per repeat");
   tp->add_option("--repeats", o.repeats, "repeats (medians are reported)");
   tp->add_option("--impl", o.impl, "both | fast | baseline");
+  tp->add_option("--records", o.records, "packed neighbour records (AVX2 path): auto (by mesh size) | on | off")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
   tp->add_flag("--json", o.json, "one JSON line");
   return {tp, [] { return throughput(o); }};
 }
