@@ -96,6 +96,22 @@ void SimThread::run() {
   // ask for deadlines kept to the nanosecond.
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   const std::int64_t period = period_ns_;
+  // The thread's own counters, read once per period (three cheap system
+  // calls, outside the stages' times): they say why a tick overran.
+  const ThreadProbe probe;
+  const TickCounters at_start = probe.totals();
+  TickCounters prev = at_start;
+  const auto take_counters = [&] {
+    const TickCounters now = probe.totals();
+    const TickCounters since_start = now - at_start;
+    store(stats_.thread_minflt, since_start.minflt);
+    store(stats_.thread_majflt, since_start.majflt);
+    store(stats_.thread_nivcsw, since_start.nivcsw);
+    store(stats_.thread_run_delay_ns, since_start.run_delay_ns);
+    const TickCounters tick_counters = now - prev;
+    prev = now;
+    return tick_counters;
+  };
   std::int64_t deadline = monotonic_ns() + period;
   std::uint64_t tick = world_.tick() + options_.first_tick;
   auto& stage = stats_.stage;
@@ -104,6 +120,8 @@ void SimThread::run() {
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
     const std::int64_t t0 = monotonic_ns();
+    const std::uint64_t cpu0 = ThreadProbe::cpu_ns();
+    const int cpu = sched_getcpu();
     stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));
     stats_.heartbeats.store(stats_.heartbeats.load(std::memory_order_relaxed) + 1, std::memory_order_release);
     while (const std::uint8_t* c = commands_.peek()) {
@@ -111,6 +129,7 @@ void SimThread::run() {
       commands_.pop();
     }
     if (stats_.paused.load(std::memory_order_relaxed)) {
+      take_counters();
       deadline += period;
       const std::int64_t now = monotonic_ns();
       if (now > deadline) deadline += ((now - deadline) / period + 1) * period;
@@ -123,36 +142,38 @@ void SimThread::run() {
     const std::int64_t t2 = monotonic_ns();
     stages_.publish(tick, world_);
     const std::int64_t t3 = monotonic_ns();
+    const std::uint64_t cpu3 = ThreadProbe::cpu_ns();
 
-    stage[static_cast<int>(Stage::input)].record(static_cast<std::uint64_t>(t1 - t0));
     // World::step collides and integrates substep by substep; its stage
     // clock adds up the collision part, the rest is integration.
-    const std::uint64_t step_ns = static_cast<std::uint64_t>(t2 - t1);
-    const std::uint64_t collision_ns = std::min(world_.collision_ns(), step_ns);
-    stage[static_cast<int>(Stage::collision)].record(collision_ns);
-    stage[static_cast<int>(Stage::integration)].record(step_ns - collision_ns);
-    stage[static_cast<int>(Stage::publish)].record(static_cast<std::uint64_t>(t3 - t2));
+    const TickTiming timing{deadline, t0, t1, t2, t3, world_.collision_ns()};
+    const auto stage_ns = stage_times_ns(timing);
+    for (int i = 0; i < static_cast<int>(Stage::count); ++i) stage[i].record(stage_ns[static_cast<std::size_t>(i)]);
 
     const sim::TickStats& ws = world_.stats();
     store(stats_.vertices_awake, ws.awake_vertices);
     store(stats_.blowups, ws.blowups_total);
     store(stats_.contacts, ws.contacts);
     stats_.last_tick_ns.store(t3, std::memory_order_relaxed);
+
+    TickCounters counters = take_counters();
+    counters.work_cpu_ns = cpu3 > cpu0 ? cpu3 - cpu0 : 0;
+    if (is_overrun(timing, period)) {
+      bump(stats_.overruns);
+      stats_.overrun_log.record(make_overrun_record(tick, cpu, timing, counters));
+    }
     ++tick;
     stats_.ticks.store(stats_.ticks.load(std::memory_order_relaxed) + 1, std::memory_order_release);
 
     deadline += period;
-    if (t3 > deadline) {
-      bump(stats_.overruns);
-      // More than a whole period behind: drop the missed periods instead of
-      // running a burst of ticks back to back.
-      if (t3 - deadline > period) {
-        const std::int64_t missed = (t3 - deadline) / period;
-        deadline += missed * period;
-        stats_.skipped_periods.store(stats_.skipped_periods.load(std::memory_order_relaxed) +
-                                         static_cast<std::uint64_t>(missed),
-                                     std::memory_order_relaxed);
-      }
+    // More than a whole period behind: drop the missed periods instead of
+    // running a burst of ticks back to back.
+    if (t3 - deadline > period) {
+      const std::int64_t missed = (t3 - deadline) / period;
+      deadline += missed * period;
+      stats_.skipped_periods.store(stats_.skipped_periods.load(std::memory_order_relaxed) +
+                                       static_cast<std::uint64_t>(missed),
+                                   std::memory_order_relaxed);
     }
     if (options_.max_ticks != 0 && stats_.ticks.load(std::memory_order_relaxed) >= options_.max_ticks) break;
   }

@@ -14,6 +14,7 @@
 
 #include "concurrency/spsc_ring.hpp"
 #include "loop/histogram.hpp"
+#include "loop/overrun.hpp"
 #include "sim/tool.hpp"
 #include "sim/world.hpp"
 
@@ -46,6 +47,13 @@ struct LoopStats {
   std::atomic<std::int64_t> last_tick_ns{0};      // CLOCK_MONOTONIC of the last completed tick
   LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns
   LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
+  OverrunLog overrun_log;                         // why each overrun happened (loop/overrun.hpp)
+  // The sim thread's own kernel counters since its loop began: page faults,
+  // preemptions and time spent runnable but waiting for a CPU.
+  std::atomic<std::uint64_t> thread_minflt{0};
+  std::atomic<std::uint64_t> thread_majflt{0};
+  std::atomic<std::uint64_t> thread_nivcsw{0};
+  std::atomic<std::uint64_t> thread_run_delay_ns{0};
 };
 
 struct SimThreadOptions {

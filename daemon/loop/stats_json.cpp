@@ -16,16 +16,54 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   s.vertices_total = stats.vertices_total.load(std::memory_order_relaxed);
   s.vertices_awake = stats.vertices_awake.load(std::memory_order_relaxed);
   s.blowups = stats.blowups.load(std::memory_order_relaxed);
+  for (int i = 0; i < static_cast<int>(OverrunCause::count); ++i)
+    s.overrun_causes[static_cast<std::size_t>(i)] = stats.overrun_log.count(static_cast<OverrunCause>(i));
+  for (int i = 0; i < static_cast<int>(OverrunDetail::count); ++i)
+    s.overrun_details[static_cast<std::size_t>(i)] = stats.overrun_log.count(static_cast<OverrunDetail>(i));
+  s.recent_overruns = stats.overrun_log.recent();
+  s.sim_thread.minflt = stats.thread_minflt.load(std::memory_order_relaxed);
+  s.sim_thread.majflt = stats.thread_majflt.load(std::memory_order_relaxed);
+  s.sim_thread.nivcsw = stats.thread_nivcsw.load(std::memory_order_relaxed);
+  s.sim_thread.run_delay_ns = stats.thread_run_delay_ns.load(std::memory_order_relaxed);
   return s;
 }
 
 namespace {
 nlohmann::json to_json(const Percentiles& p) { return {{"p50", p.p50}, {"p99", p.p99}, {"max", p.max}}; }
+
+double us(std::uint64_t ns) { return static_cast<double>(ns) / 1e3; }
+
+nlohmann::json to_json(const OverrunRecord& r) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (int i = 0; i < kOverrunStages; ++i)
+    stages[stage_name(static_cast<Stage>(i))] = us(r.stage_ns[static_cast<std::size_t>(i)]);
+  return {
+      {"tick", r.tick},
+      {"cause", overrun_cause_name(r.cause)},
+      {"detail", overrun_detail_name(r.detail)},
+      {"cpu", r.cpu},
+      {"late_us", us(static_cast<std::uint64_t>(r.late_ns))},
+      {"stage_us", stages},
+      {"work_cpu_us", us(r.counters.work_cpu_ns)},
+      {"run_delay_us", us(r.counters.run_delay_ns)},
+      {"minflt", r.counters.minflt},
+      {"majflt", r.counters.majflt},
+      {"nivcsw", r.counters.nivcsw},
+  };
+}
 }  // namespace
 
 nlohmann::json stats_json(const StatsSnapshot& s) {
   nlohmann::json stages = nlohmann::json::object();
   for (int i = 0; i < static_cast<int>(Stage::count); ++i) stages[stage_name(static_cast<Stage>(i))] = to_json(s.stage_us[i]);
+  nlohmann::json causes = nlohmann::json::object();
+  for (int i = 0; i < static_cast<int>(OverrunCause::count); ++i)
+    causes[overrun_cause_name(static_cast<OverrunCause>(i))] = s.overrun_causes[static_cast<std::size_t>(i)];
+  nlohmann::json details = nlohmann::json::object();
+  for (int i = 0; i < static_cast<int>(OverrunDetail::count); ++i)
+    details[overrun_detail_name(static_cast<OverrunDetail>(i))] = s.overrun_details[static_cast<std::size_t>(i)];
+  nlohmann::json recent = nlohmann::json::array();
+  for (const OverrunRecord& r : s.recent_overruns) recent.push_back(to_json(r));
   return {
       {"rate_hz", s.rate_hz},
       {"ticks", s.ticks},
@@ -39,6 +77,14 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
       {"ff_uploads", s.ff_uploads},
       {"bytes_sent", s.bytes_sent},
       {"blowups", s.blowups},
+      {"overrun_causes", causes},
+      {"overrun_details", details},
+      {"recent_overruns", recent},
+      {"sim_thread",
+       {{"minflt", s.sim_thread.minflt},
+        {"majflt", s.sim_thread.majflt},
+        {"nivcsw", s.sim_thread.nivcsw},
+        {"run_delay_us", us(s.sim_thread.run_delay_ns)}}},
   };
 }
 

@@ -3,11 +3,18 @@
 // both always carry exactly the same keys:
 //   rate_hz, ticks, overruns, jitter_us {p50, p99, max},
 //   stage_us {input, collision, integration, publish: {p50, p99, max}},
-//   vertices_total, vertices_awake, viewers, devices, ff_uploads, bytes_sent, blowups
+//   vertices_total, vertices_awake, viewers, devices, ff_uploads, bytes_sent, blowups,
+// and why ticks overran (loop/overrun.hpp):
+//   overrun_causes {late_wake, long_step},
+//   overrun_details {wake_waited_for_cpu, wake_timer_late, step_off_cpu, step_on_cpu},
+//   recent_overruns [{tick, cause, detail, cpu, late_us, stage_us {input, collision,
+//     integration, publish}, work_cpu_us, run_delay_us, minflt, majflt, nivcsw}] (the last 8),
+//   sim_thread {minflt, majflt, nivcsw, run_delay_us} (since the loop began)
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -32,6 +39,10 @@ struct StatsSnapshot {
   std::uint64_t ff_uploads = 0;   // the haptics thread's
   std::uint64_t bytes_sent = 0;   // the streaming server's
   std::uint64_t blowups = 0;
+  std::array<std::uint64_t, static_cast<int>(OverrunCause::count)> overrun_causes{};
+  std::array<std::uint64_t, static_cast<int>(OverrunDetail::count)> overrun_details{};
+  std::vector<OverrunRecord> recent_overruns;  // oldest first
+  TickCounters sim_thread{};                   // run_delay, faults, switches since the loop began
 };
 
 Percentiles percentiles_us(const LatencyHistogram& h);

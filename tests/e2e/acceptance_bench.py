@@ -7,10 +7,14 @@ replayed session for 30 s at 1 kHz, stats from sculptd's own --stats-json.
 
 Runs `sculptd --scene S --input replay:R --duration D --stats-json F`
 (and the same with --realtime), `repeats` times each, and prints per run and
-the medians: overruns, jitter p50/p99/max, stage times, vertices awake. It
-prints numbers and asserts nothing (timings are not tests); it fails only if
-sculptd fails or the replay is not deterministic (same session, different
-final mesh hash).
+the medians: overruns, jitter p50/p99/max, stage times, vertices awake. Per
+run it also prints why the overruns happened (the stats' overrun_causes and
+overrun_details, the sim thread's faults, preemptions and run delay, the last
+overruns tick by tick) and the host's steal over the run: the `steal` column
+of /proc/stat's `cpu` line (column 9, in USER_HZ ticks: 1/100 s) read before
+and after, with the load average at the start. It prints numbers and asserts
+nothing (timings are not tests); it fails only if sculptd fails or the replay
+is not deterministic (same session, different final mesh hash).
 """
 import argparse
 import json
@@ -21,6 +25,22 @@ import sys
 import tempfile
 
 
+def cpu_times():
+    """/proc/stat's `cpu` line: every column by name (steal is column 9)."""
+    with open("/proc/stat") as f:
+        for l in f:
+            if l.startswith("cpu "):
+                cols = l.split()
+                names = ["user", "nice", "system", "idle", "iowait", "irq", "softirq", "steal"]
+                return {n: int(v) for n, v in zip(names, cols[1:])}
+    return {}
+
+
+def loadavg():
+    with open("/proc/loadavg") as f:
+        return f.read().split()[0]
+
+
 def run(a, realtime, tmp, i):
     stats = os.path.join(tmp, f"stats-{realtime}-{i}.json")
     hash_out = os.path.join(tmp, f"hash-{realtime}-{i}")
@@ -28,7 +48,10 @@ def run(a, realtime, tmp, i):
            "--duration", str(a.duration), "--stats-json", stats, "--hash-out", hash_out, "--log-level", "warning"]
     if realtime:
         cmd.append("--realtime")
+    load = loadavg()
+    before = cpu_times()
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=a.duration * 4 + 120)
+    after = cpu_times()
     if r.returncode != 0:
         print(f"sculptd failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr}", file=sys.stderr)
         sys.exit(1)
@@ -37,15 +60,37 @@ def run(a, realtime, tmp, i):
     with open(hash_out) as f:
         s["hash"] = f.read().strip()
     s["warnings"] = [l for l in r.stderr.splitlines() if l.strip()]
+    s["host"] = {"load": load, **{k: after.get(k, 0) - before.get(k, 0) for k in ("steal", "idle", "user", "system")}}
     return s
 
 
 def line(s):
     st = s["stage_us"]
     return (f"ticks {s['ticks']} overruns {s['overruns']} jitter_us p50 {s['jitter_us']['p50']:.1f} "
-            f"p99 {s['jitter_us']['p99']:.1f} max {s['jitter_us']['max']:.1f} | stage p50/p99 us: "
-            + " ".join(f"{k} {v['p50']:.1f}/{v['p99']:.1f}" for k, v in st.items())
+            f"p99 {s['jitter_us']['p99']:.1f} max {s['jitter_us']['max']:.1f} | stage p50/p99/max us: "
+            + " ".join(f"{k} {v['p50']:.1f}/{v['p99']:.1f}/{v['max']:.0f}" for k, v in st.items())
             + f" | vertices {s['vertices_total']} awake at end {s['vertices_awake']} blowups {s['blowups']}")
+
+
+def attribution(s):
+    """Why the run's overruns happened (older daemons lack the keys: say so)."""
+    h = s["host"]
+    host = (f"host: load {h['load']} at start; /proc/stat over the run (1/100 s, both CPUs): steal {h['steal']} "
+            f"idle {h['idle']} user {h['user']} system {h['system']}")
+    if "overrun_causes" not in s:
+        return [host, "no overrun attribution in this sculptd's stats"]
+    c, d, t = s["overrun_causes"], s["overrun_details"], s["sim_thread"]
+    out = [host,
+           "causes: " + " ".join(f"{k} {v}" for k, v in c.items()) + " | " + " ".join(f"{k} {v}" for k, v in d.items()),
+           f"sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']} "
+           f"run_delay {t['run_delay_us'] / 1e3:.1f} ms"]
+    for r in s["recent_overruns"]:
+        st = r["stage_us"]
+        out.append(f"  tick {r['tick']} cpu {r['cpu']} {r['cause']}/{r['detail']}: late {r['late_us']:.0f} us, "
+                   + " ".join(f"{k} {v:.0f}" for k, v in st.items())
+                   + f" us; on-cpu {r['work_cpu_us']:.0f} us, run_delay {r['run_delay_us']:.0f} us, "
+                   f"minflt {r['minflt']} majflt {r['majflt']} nivcsw {r['nivcsw']}")
+    return out
 
 
 def main():
@@ -66,6 +111,8 @@ def main():
             label = "--realtime" if rt else "plain"
             for i, s in enumerate(runs):
                 print(f"{label} run {i + 1}: {line(s)}")
+                for l in attribution(s):
+                    print(f"  {l}")
                 for w in s["warnings"]:
                     print(f"  {w}")
                 hashes.add(s["hash"])

@@ -111,6 +111,29 @@ TEST(SimThread, ATickThatRunsPastTheNextDeadlineIsAnOverrun) {
   EXPECT_GE(thread.stats().overruns.load(), 1u);
   EXPECT_GE(thread.stats().skipped_periods.load(), 1u);  // no burst of catch-up ticks
   EXPECT_EQ(thread.ticks(), 30u);
+  // Attributed: tick 10's input stage slept (off the CPU) through 20 periods.
+  const StatsSnapshot s = snapshot(thread.stats(), o.rate_hz);
+  EXPECT_EQ(s.overrun_causes[0] + s.overrun_causes[1], s.overruns);
+  EXPECT_GE(s.overrun_causes[static_cast<int>(OverrunCause::long_step)], 1u);
+  const OverrunRecord* slow = nullptr;
+  for (const OverrunRecord& r : s.recent_overruns) {
+    if (r.tick == 10) slow = &r;
+  }
+  ASSERT_NE(slow, nullptr) << "tick 10's overrun was not kept";
+  EXPECT_EQ(slow->cause, OverrunCause::long_step);
+  EXPECT_EQ(slow->detail, OverrunDetail::step_off_cpu);
+  EXPECT_GE(slow->stage_ns[static_cast<int>(Stage::input)], 20'000'000u);
+  EXPECT_LT(slow->counters.work_cpu_ns, 10'000'000u);
+  const nlohmann::json j = stats_json(s);
+  EXPECT_GE(j["overrun_causes"]["long_step"].get<int>(), 1);
+  bool found = false;
+  for (const auto& r : j["recent_overruns"]) {
+    if (r["tick"] != 10) continue;
+    found = true;
+    EXPECT_EQ(r["cause"], "long_step");
+    EXPECT_GE(r["stage_us"]["input"].get<double>(), 20000.0);
+  }
+  EXPECT_TRUE(found);
 }
 
 TEST(SimThread, NothingIsAllocatedOnTheSimThreadOnceItRuns) {
@@ -147,9 +170,10 @@ TEST(StatsJson, CarriesExactlyTheListedKeys) {
   std::vector<std::string> keys;
   for (const auto& [k, v] : j.items()) keys.push_back(k);
   std::sort(keys.begin(), keys.end());
-  const std::vector<std::string> expected{"blowups",  "bytes_sent",     "devices",        "ff_uploads",
-                                          "jitter_us", "overruns",      "rate_hz",        "stage_us",
-                                          "ticks",    "vertices_awake", "vertices_total", "viewers"};
+  const std::vector<std::string> expected{"blowups",         "bytes_sent",      "devices",         "ff_uploads",
+                                          "jitter_us",       "overrun_causes",  "overrun_details", "overruns",
+                                          "rate_hz",         "recent_overruns", "sim_thread",      "stage_us",
+                                          "ticks",           "vertices_awake",  "vertices_total",  "viewers"};
   EXPECT_EQ(keys, expected);
   for (const char* k : {"p50", "p99", "max"}) EXPECT_TRUE(j["jitter_us"].contains(k)) << k;
   for (const char* st : {"input", "collision", "integration", "publish"}) {
@@ -159,6 +183,11 @@ TEST(StatsJson, CarriesExactlyTheListedKeys) {
   EXPECT_EQ(j["ticks"], 12);
   EXPECT_EQ(j["devices"], 2);
   EXPECT_EQ(j["viewers"], 0);
+  for (const char* k : {"late_wake", "long_step"}) EXPECT_EQ(j["overrun_causes"][k], 0) << k;
+  for (const char* k : {"wake_waited_for_cpu", "wake_timer_late", "step_off_cpu", "step_on_cpu"})
+    EXPECT_EQ(j["overrun_details"][k], 0) << k;
+  EXPECT_TRUE(j["recent_overruns"].is_array());
+  for (const char* k : {"minflt", "majflt", "nivcsw", "run_delay_us"}) EXPECT_TRUE(j["sim_thread"].contains(k)) << k;
 }
 
 }  // namespace
