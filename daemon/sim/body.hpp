@@ -50,6 +50,7 @@ struct BlockState {
   bool touched = false;   // a tool box reached it this tick (or it holds a grabbed vertex)
   bool changed = false;   // integrated or pushed this tick
   bool dirty = false;     // changed since the last good-state snapshot
+  bool accel_current = false;  // ax..az hold the forces of the present state (velocity Verlet's opening kick needs them)
 };
 
 // Per tool and body: candidate blocks this tick and the vertices a grab holds.

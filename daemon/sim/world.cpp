@@ -468,6 +468,7 @@ void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
     pack_vertex(b, i, S(1));  // at rest: velocity 0 whatever the dt
   }
   s.awake = false;
+  s.accel_current = false;  // zeroed above
   s.quiet_ticks = 0;
   --awake_total_[&b - bodies_.data()];
   refit(b, blk);
@@ -513,6 +514,7 @@ void World<S>::restore(Body<S>& b) {
     s.changed = true;
     s.dirty = false;
     s.energy = 0;
+    s.accel_current = false;  // zeroed above
     refit(b, blk);
   }
   for (auto& tc : b.tools) tc.grab_count = 0, tc.grabbing = false;
@@ -658,11 +660,25 @@ void World<S>::step_body(std::uint32_t bi) {
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
-    if (integ == Integrator::velocity_verlet)
+    if (integ == Integrator::velocity_verlet) {
+      // The opening half kick uses a(t), which the last closing force pass
+      // left in ax..az. A block that has not had one since it was created,
+      // woken, restored or set by hand gets its forces first (before any
+      // block drifts): otherwise its first step kicks with zero (or stale)
+      // acceleration and the integrator starts first order.
+      if (sub == 0)
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q];
+          if (b.block[blk].accel_current) continue;
+          kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
+                         b.overflow_begin[blk + 1]);
+        }
       for (std::uint32_t q = 0; q < b.awake_count; ++q) {
         const std::uint32_t blk = b.awake_list[q];
+        b.block[blk].accel_current = true;  // the closing pass below recomputes them
         kernel::vv_open(ia, b.begin_of(blk), b.end_of(blk));
       }
+    }
     auto account = [&](std::uint32_t q, const kernel::BlockSums<S>& sums) {
       BlockState<S>& s = b.block[b.awake_list[q]];
       S v2;
@@ -854,6 +870,10 @@ void World<S>::set_state(std::size_t bi, std::uint32_t original, const Vec3d& p,
   const std::uint32_t blk = k / kBlock;
   wake(b, blk);
   b.block[blk].grow += static_cast<S>(norm({p[0] - b.rx[k], p[1] - b.ry[k], p[2] - b.rz[k]}));
+  // Its block's and its spring neighbours' blocks' forces changed.
+  b.block[blk].accel_current = false;
+  for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
+    b.block[b.block_neighbours[e]].accel_current = false;
   b.external_input = true;  // scripted energy is input, not a blow-up
   update_box(b);
 }
