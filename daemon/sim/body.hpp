@@ -112,6 +112,7 @@ struct Body {
   double energy = 0;        // last measured total energy, J
   double energy_ref = 0;    // the most energy tool input has put in since the mesh last slept
   double energy_floor = 0;  // noise floor of the energy test
+  double speed_limit = 0;   // m/s: a vertex faster than this is divergence (set by World)
   std::uint64_t blowups = 0;
   int boost = 1;            // substep multiplier after a blow-up
   int snapshot_age = 0;

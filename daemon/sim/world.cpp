@@ -60,6 +60,11 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   const double m = material.mass;
   b.energy_floor = b.n * m * (0.5 * 0.05 * 0.05 + g * b.extent) +
                    b.springs * material.stiffness * (0.01 * b.mean_edge) * (0.01 * b.mean_edge) + 1e-12;
+  // Nothing a hand does moves a vertex at ten times the fastest tool, and no
+  // motion of the network itself beats its stiffest mode swinging across the
+  // whole mesh (ω_max · extent: light vertices on stiff springs legitimately
+  // move far faster than any tool). Anything faster is divergence.
+  b.speed_limit = std::max(10.0 * settings_.max_tool_speed, std::sqrt(choice.bound.lambda_max_bound) * b.extent);
   // At rest pose with no gravity a mesh is in equilibrium: it starts asleep.
   std::uint32_t awake = 0;
   if (material.gravity && g > 0.0) {
@@ -648,8 +653,7 @@ void World<S>::step_body(std::uint32_t bi) {
   const kernel::Velocity vel = verlet ? kernel::Velocity::step : kernel::Velocity::stored;
   const S kg = static_cast<S>(m.grab_stiffness), inv_m = static_cast<S>(1.0 / m.mass);
 
-  // Nothing a hand does moves a vertex at ten times the fastest tool: that is divergence.
-  const S speed_limit2 = static_cast<S>(100.0 * settings_.max_tool_speed * settings_.max_tool_speed);
+  const S speed_limit2 = static_cast<S>(b.speed_limit * b.speed_limit);
   bool finite = true;
   bool grabbing = false;
   for (std::uint32_t t = 0; t < tool_slots_; ++t) grabbing = grabbing || b.tools[t].grabbing;

@@ -142,11 +142,12 @@ TEST(Stress, ExtremeMaterials) {
   };
   const Case cases[] = {
       {"very stiff", 0.01, 2e5, 0.05, 0.05},
-      // 0.1 g per vertex, 100× lighter than the default. Lighter still (1e-5 kg and
-      // below) the guard's speed limit (10 × max_tool_speed) fires on legitimate
-      // motion: a 10 mg vertex on a 200 N/m spring stretched 2 cm moves at ~90 m/s
-      // (docs/benchmarks.md, stress findings).
+      // 0.1 g and 1 mg per vertex, 100× and 10 000× lighter than the default: a
+      // 1 mg vertex on a 200 N/m spring stretched 2 cm moves at ~280 m/s, which
+      // the guard must not take for divergence (its speed limit scales with the
+      // stiffest mode, not only the tool's top speed).
       {"near-zero mass", 1e-4, 200.0, 0.05 * 1e-2, 0.05 * 1e-2},
+      {"a milligram per vertex", 1e-6, 200.0, 0.05 * 1e-4, 0.05 * 1e-4},
       {"no damping", 0.01, 200.0, 0.0, 0.0},
       {"stiff and undamped", 0.01, 2e4, 0.0, 0.0},
       {"light and soft", 1e-5, 0.05, 1e-5, 2e-4},
