@@ -154,48 +154,35 @@ struct Stats {
   simThread @19 :SimThreadCounters;
 }
 
-# An overrun's cause is whichever of wake-up lateness and work was larger;
-# the detail splits it by the sim thread's counters over that tick.
+# An overrun's cause is whichever of wake-up lateness and work was larger.
 enum OverrunCause {
   lateWake @0;
   longStep @1;
 }
 
-enum OverrunDetail {
-  wakeWaitedForCpu @0;             # late wake, runnable behind another task (run delay)
-  wakeTimerLate @1;                # late wake, the timer itself fired late (no run delay)
-  stepOffCpu @2;                   # long step, the thread was off the CPU for most of it
-  stepOnCpu @3;                    # long step, computing
-}
-
 struct OverrunCauses {
   lateWake @0 :UInt64;
   longStep @1 :UInt64;
-  wakeWaitedForCpu @2 :UInt64;
-  wakeTimerLate @3 :UInt64;
-  stepOffCpu @4 :UInt64;
-  stepOnCpu @5 :UInt64;
+  longStepOffCpu @2 :UInt64;       # of longStep: the thread was off the CPU for most of the work
 }
 
 struct Overrun {
   tick @0 :UInt64;
   cause @1 :OverrunCause;
-  detail @2 :OverrunDetail;
+  offCpu @2 :Bool;                 # a long step mostly off the CPU
   cpu @3 :Int32;                   # the CPU it woke on (-1: unknown)
   lateNs @4 :Int64;                # wake − deadline
   stageNs @5 :List(UInt64);        # input, collision, integration, publish (stageUs' order)
   workCpuNs @6 :UInt64;            # the thread's CPU time over the work
-  runDelayNs @7 :UInt64;           # runnable but not running, over the tick
-  minflt @8 :UInt64;               # page faults over the tick
-  majflt @9 :UInt64;
-  nivcsw @10 :UInt64;              # involuntary context switches over the tick
+  minflt @7 :UInt64;               # page faults over the tick
+  majflt @8 :UInt64;
+  nivcsw @9 :UInt64;               # involuntary context switches over the tick
 }
 
 struct SimThreadCounters {
   minflt @0 :UInt64;
   majflt @1 :UInt64;
   nivcsw @2 :UInt64;
-  runDelayNs @3 :UInt64;
 }
 
 struct HistogramBucket {

@@ -48,12 +48,11 @@ struct LoopStats {
   LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns
   LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
   OverrunLog overrun_log;                         // why each overrun happened (loop/overrun.hpp)
-  // The sim thread's own kernel counters since its loop began: page faults,
-  // preemptions and time spent runnable but waiting for a CPU.
+  // The sim thread's own kernel counters since its loop began: page faults
+  // and preemptions.
   std::atomic<std::uint64_t> thread_minflt{0};
   std::atomic<std::uint64_t> thread_majflt{0};
   std::atomic<std::uint64_t> thread_nivcsw{0};
-  std::atomic<std::uint64_t> thread_run_delay_ns{0};
 };
 
 struct SimThreadOptions {

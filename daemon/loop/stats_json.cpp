@@ -18,13 +18,11 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   s.blowups = stats.blowups.load(std::memory_order_relaxed);
   for (int i = 0; i < static_cast<int>(OverrunCause::count); ++i)
     s.overrun_causes[static_cast<std::size_t>(i)] = stats.overrun_log.count(static_cast<OverrunCause>(i));
-  for (int i = 0; i < static_cast<int>(OverrunDetail::count); ++i)
-    s.overrun_details[static_cast<std::size_t>(i)] = stats.overrun_log.count(static_cast<OverrunDetail>(i));
+  s.long_steps_off_cpu = stats.overrun_log.long_steps_off_cpu();
   s.recent_overruns = stats.overrun_log.recent();
   s.sim_thread.minflt = stats.thread_minflt.load(std::memory_order_relaxed);
   s.sim_thread.majflt = stats.thread_majflt.load(std::memory_order_relaxed);
   s.sim_thread.nivcsw = stats.thread_nivcsw.load(std::memory_order_relaxed);
-  s.sim_thread.run_delay_ns = stats.thread_run_delay_ns.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -40,12 +38,11 @@ nlohmann::json to_json(const OverrunRecord& r) {
   return {
       {"tick", r.tick},
       {"cause", overrun_cause_name(r.cause)},
-      {"detail", overrun_detail_name(r.detail)},
+      {"off_cpu", r.off_cpu},
       {"cpu", r.cpu},
       {"late_us", us(static_cast<std::uint64_t>(r.late_ns))},
       {"stage_us", stages},
       {"work_cpu_us", us(r.counters.work_cpu_ns)},
-      {"run_delay_us", us(r.counters.run_delay_ns)},
       {"minflt", r.counters.minflt},
       {"majflt", r.counters.majflt},
       {"nivcsw", r.counters.nivcsw},
@@ -59,9 +56,7 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
   nlohmann::json causes = nlohmann::json::object();
   for (int i = 0; i < static_cast<int>(OverrunCause::count); ++i)
     causes[overrun_cause_name(static_cast<OverrunCause>(i))] = s.overrun_causes[static_cast<std::size_t>(i)];
-  nlohmann::json details = nlohmann::json::object();
-  for (int i = 0; i < static_cast<int>(OverrunDetail::count); ++i)
-    details[overrun_detail_name(static_cast<OverrunDetail>(i))] = s.overrun_details[static_cast<std::size_t>(i)];
+  causes["long_step_off_cpu"] = s.long_steps_off_cpu;
   nlohmann::json recent = nlohmann::json::array();
   for (const OverrunRecord& r : s.recent_overruns) recent.push_back(to_json(r));
   return {
@@ -78,13 +73,11 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
       {"bytes_sent", s.bytes_sent},
       {"blowups", s.blowups},
       {"overrun_causes", causes},
-      {"overrun_details", details},
       {"recent_overruns", recent},
       {"sim_thread",
        {{"minflt", s.sim_thread.minflt},
         {"majflt", s.sim_thread.majflt},
-        {"nivcsw", s.sim_thread.nivcsw},
-        {"run_delay_us", us(s.sim_thread.run_delay_ns)}}},
+        {"nivcsw", s.sim_thread.nivcsw}}},
   };
 }
 

@@ -5,11 +5,10 @@
 //   stage_us {input, collision, integration, publish: {p50, p99, max}},
 //   vertices_total, vertices_awake, viewers, devices, ff_uploads, bytes_sent, blowups,
 // and why ticks overran (loop/overrun.hpp):
-//   overrun_causes {late_wake, long_step},
-//   overrun_details {wake_waited_for_cpu, wake_timer_late, step_off_cpu, step_on_cpu},
-//   recent_overruns [{tick, cause, detail, cpu, late_us, stage_us {input, collision,
-//     integration, publish}, work_cpu_us, run_delay_us, minflt, majflt, nivcsw}] (the last 8),
-//   sim_thread {minflt, majflt, nivcsw, run_delay_us} (since the loop began)
+//   overrun_causes {late_wake, long_step, long_step_off_cpu},
+//   recent_overruns [{tick, cause, cpu, late_us, stage_us {input, collision,
+//     integration, publish}, work_cpu_us, minflt, majflt, nivcsw}] (the last 8),
+//   sim_thread {minflt, majflt, nivcsw} (since the loop began)
 #pragma once
 
 #include <array>
@@ -40,9 +39,9 @@ struct StatsSnapshot {
   std::uint64_t bytes_sent = 0;   // the streaming server's
   std::uint64_t blowups = 0;
   std::array<std::uint64_t, static_cast<int>(OverrunCause::count)> overrun_causes{};
-  std::array<std::uint64_t, static_cast<int>(OverrunDetail::count)> overrun_details{};
+  std::uint64_t long_steps_off_cpu = 0;        // of overrun_causes[long_step]
   std::vector<OverrunRecord> recent_overruns;  // oldest first
-  TickCounters sim_thread{};                   // run_delay, faults, switches since the loop began
+  TickCounters sim_thread{};                   // faults and preemptions since the loop began
 };
 
 Percentiles percentiles_us(const LatencyHistogram& h);

@@ -111,29 +111,23 @@ namespace {
 
 // Stats minor 2: why ticks overran, exactly as loop::snapshot has it.
 void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
-  using loop::OverrunCause, loop::OverrunDetail;
-  const auto cause = [&](OverrunCause c) { return s.overrun_causes[static_cast<std::size_t>(c)]; };
-  const auto detail = [&](OverrunDetail d) { return s.overrun_details[static_cast<std::size_t>(d)]; };
+  using loop::OverrunCause;
   auto c = out.initOverrunCauses();
-  c.setLateWake(cause(OverrunCause::late_wake));
-  c.setLongStep(cause(OverrunCause::long_step));
-  c.setWakeWaitedForCpu(detail(OverrunDetail::wake_waited_for_cpu));
-  c.setWakeTimerLate(detail(OverrunDetail::wake_timer_late));
-  c.setStepOffCpu(detail(OverrunDetail::step_off_cpu));
-  c.setStepOnCpu(detail(OverrunDetail::step_on_cpu));
+  c.setLateWake(s.overrun_causes[static_cast<std::size_t>(OverrunCause::late_wake)]);
+  c.setLongStep(s.overrun_causes[static_cast<std::size_t>(OverrunCause::long_step)]);
+  c.setLongStepOffCpu(s.long_steps_off_cpu);
   auto recent = out.initRecentOverruns(static_cast<unsigned>(s.recent_overruns.size()));
   for (unsigned i = 0; i < recent.size(); ++i) {
     const loop::OverrunRecord& r = s.recent_overruns[i];
     auto o = recent[i];
     o.setTick(r.tick);
-    o.setCause(static_cast<proto::OverrunCause>(r.cause));
-    o.setDetail(static_cast<proto::OverrunDetail>(r.detail));
+    o.setCause(r.cause == OverrunCause::long_step ? proto::OverrunCause::LONG_STEP : proto::OverrunCause::LATE_WAKE);
+    o.setOffCpu(r.off_cpu);
     o.setCpu(r.cpu);
     o.setLateNs(r.late_ns);
     auto st = o.initStageNs(static_cast<unsigned>(r.stage_ns.size()));
     for (unsigned k = 0; k < st.size(); ++k) st.set(k, r.stage_ns[k]);
     o.setWorkCpuNs(r.counters.work_cpu_ns);
-    o.setRunDelayNs(r.counters.run_delay_ns);
     o.setMinflt(r.counters.minflt);
     o.setMajflt(r.counters.majflt);
     o.setNivcsw(r.counters.nivcsw);
@@ -142,32 +136,24 @@ void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
   t.setMinflt(s.sim_thread.minflt);
   t.setMajflt(s.sim_thread.majflt);
   t.setNivcsw(s.sim_thread.nivcsw);
-  t.setRunDelayNs(s.sim_thread.run_delay_ns);
 }
 
 void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
-  using loop::OverrunCause, loop::OverrunDetail;
+  using loop::OverrunCause;
   const auto c = in.getOverrunCauses();
   s.overrun_causes[static_cast<std::size_t>(OverrunCause::late_wake)] = c.getLateWake();
   s.overrun_causes[static_cast<std::size_t>(OverrunCause::long_step)] = c.getLongStep();
-  s.overrun_details[static_cast<std::size_t>(OverrunDetail::wake_waited_for_cpu)] = c.getWakeWaitedForCpu();
-  s.overrun_details[static_cast<std::size_t>(OverrunDetail::wake_timer_late)] = c.getWakeTimerLate();
-  s.overrun_details[static_cast<std::size_t>(OverrunDetail::step_off_cpu)] = c.getStepOffCpu();
-  s.overrun_details[static_cast<std::size_t>(OverrunDetail::step_on_cpu)] = c.getStepOnCpu();
+  s.long_steps_off_cpu = c.getLongStepOffCpu();
   for (const auto o : in.getRecentOverruns()) {
     loop::OverrunRecord r;
     r.tick = o.getTick();
-    // An enumerant from a newer daemon is not ours to name: keep the record, say "?".
-    r.cause = static_cast<OverrunCause>(std::min<unsigned>(static_cast<unsigned>(o.getCause()),
-                                                           static_cast<unsigned>(OverrunCause::count)));
-    r.detail = static_cast<OverrunDetail>(std::min<unsigned>(static_cast<unsigned>(o.getDetail()),
-                                                             static_cast<unsigned>(OverrunDetail::count)));
+    r.cause = o.getCause() == proto::OverrunCause::LONG_STEP ? OverrunCause::long_step : OverrunCause::late_wake;
+    r.off_cpu = o.getOffCpu();
     r.cpu = o.getCpu();
     r.late_ns = o.getLateNs();
     const auto st = o.getStageNs();
     for (unsigned k = 0; k < st.size() && k < r.stage_ns.size(); ++k) r.stage_ns[k] = st[k];
     r.counters.work_cpu_ns = o.getWorkCpuNs();
-    r.counters.run_delay_ns = o.getRunDelayNs();
     r.counters.minflt = o.getMinflt();
     r.counters.majflt = o.getMajflt();
     r.counters.nivcsw = o.getNivcsw();
@@ -177,7 +163,6 @@ void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
   s.sim_thread.minflt = t.getMinflt();
   s.sim_thread.majflt = t.getMajflt();
   s.sim_thread.nivcsw = t.getNivcsw();
-  s.sim_thread.run_delay_ns = t.getRunDelayNs();
 }
 
 }  // namespace

@@ -8,9 +8,8 @@ replayed session for 30 s at 1 kHz, stats from sculptd's own --stats-json.
 Runs `sculptd --scene S --input replay:R --duration D --stats-json F`
 (and the same with --realtime), `repeats` times each, and prints per run and
 the medians: overruns, jitter p50/p99/max, stage times, vertices awake. Per
-run it also prints why the overruns happened (the stats' overrun_causes and
-overrun_details, the sim thread's faults, preemptions and run delay, the last
-overruns tick by tick) and the host's steal over the run: the `steal` column
+run it also prints why the overruns happened (the stats' overrun_causes, the
+sim thread's faults and preemptions, the last overruns tick by tick) and the host's steal over the run: the `steal` column
 of /proc/stat's `cpu` line (column 9, in USER_HZ ticks: 1/100 s) read before
 and after, with the load average at the start. It prints numbers and asserts
 nothing (timings are not tests); it fails only if sculptd fails or the replay
@@ -79,16 +78,16 @@ def attribution(s):
             f"idle {h['idle']} user {h['user']} system {h['system']}")
     if "overrun_causes" not in s:
         return [host, "no overrun attribution in this sculptd's stats"]
-    c, d, t = s["overrun_causes"], s["overrun_details"], s["sim_thread"]
+    c, t = s["overrun_causes"], s["sim_thread"]
     out = [host,
-           "causes: " + " ".join(f"{k} {v}" for k, v in c.items()) + " | " + " ".join(f"{k} {v}" for k, v in d.items()),
-           f"sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']} "
-           f"run_delay {t['run_delay_us'] / 1e3:.1f} ms"]
+           "overrun causes: " + " ".join(f"{k} {v}" for k, v in c.items())
+           + f" | sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']}"]
     for r in s["recent_overruns"]:
         st = r["stage_us"]
-        out.append(f"  tick {r['tick']} cpu {r['cpu']} {r['cause']}/{r['detail']}: late {r['late_us']:.0f} us, "
+        cause = r["cause"] + (" (off cpu)" if r["off_cpu"] else "")
+        out.append(f"  tick {r['tick']} cpu {r['cpu']} {cause}: late {r['late_us']:.0f} us, "
                    + " ".join(f"{k} {v:.0f}" for k, v in st.items())
-                   + f" us; on-cpu {r['work_cpu_us']:.0f} us, run_delay {r['run_delay_us']:.0f} us, "
+                   + f" us; on-cpu {r['work_cpu_us']:.0f} us, "
                    f"minflt {r['minflt']} majflt {r['majflt']} nivcsw {r['nivcsw']}")
     return out
 

@@ -25,14 +25,10 @@ void print_status(proto::Stats::Reader st, const std::string& server, const std:
   fmt::print("  scene       {}\n", st.getScene().cStr());
   fmt::print("  uptime      {:.1f} s, simulated {:.3f} s\n", st.getUptimeS(), static_cast<double>(st.getSimTimeNs()) * 1e-9);
   fmt::print("  rate        {:g} Hz, {} ticks, {} overruns\n", s.rate_hz, s.ticks, s.overruns);
-  if (s.overruns != 0) {
-    using loop::OverrunDetail;
-    const auto d = [&](OverrunDetail x) { return s.overrun_details[static_cast<std::size_t>(x)]; };
-    fmt::print("  overrun by  late wake {} ({} waited for a CPU, {} timer late), long step {} ({} off the CPU)\n",
+  if (s.overruns != 0)
+    fmt::print("  overruns by late wake {}, long step {} ({} of them off the CPU)\n",
                s.overrun_causes[static_cast<std::size_t>(loop::OverrunCause::late_wake)],
-               d(OverrunDetail::wake_waited_for_cpu), d(OverrunDetail::wake_timer_late),
-               s.overrun_causes[static_cast<std::size_t>(loop::OverrunCause::long_step)], d(OverrunDetail::step_off_cpu));
-  }
+               s.overrun_causes[static_cast<std::size_t>(loop::OverrunCause::long_step)], s.long_steps_off_cpu);
   fmt::print("  jitter      {}\n", quantiles(s.jitter_us));
   for (int i = 0; i < static_cast<int>(loop::Stage::count); ++i)
     fmt::print("  {:<11} {}\n", loop::stage_name(static_cast<loop::Stage>(i)), quantiles(s.stage_us[static_cast<std::size_t>(i)]));
