@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "loop/preemption.hpp"
+
 namespace sculpt::loop {
 
 const char* stage_name(Stage s) {
@@ -80,6 +82,7 @@ RealtimeResult SimThread::start() {
     if (err == 0) rt.fifo = true;
     else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
                                "): running at normal priority; grant CAP_SYS_NICE or an RLIMIT_RTPRIO");
+    if (auto w = preemption_warning(current_preemption_model())) rt.warnings.push_back(*w);
   }
   return rt;
 }
