@@ -53,6 +53,10 @@ SimThread::SimThread(sim::World<float>& world, TickStages& stages, std::size_t t
   if (options.realtime_priority < 1 || options.realtime_priority > 99)
     throw std::invalid_argument("realtime priority must be 1..99");
   period_ns_ = std::llround(1e9 / options.rate_hz);
+  if (options.wake_early_ns < 0 || options.wake_early_ns > period_ns_ / 2)
+    throw std::invalid_argument("wake early must be between 0 and half the period (" +
+                                std::to_string(period_ns_ / 2000) + " us), got " +
+                                std::to_string(options.wake_early_ns / 1000) + " us");
   for (auto& t : tools_) t.active = false;
   world_.set_stage_clock([] { return static_cast<std::uint64_t>(monotonic_ns()); });
   std::uint64_t total = 0;
@@ -116,11 +120,13 @@ void SimThread::run() {
   std::int64_t deadline = monotonic_ns() + period;
   std::uint64_t tick = world_.tick() + options_.first_tick;
   auto& stage = stats_.stage;
+  const std::int64_t early = options_.wake_early_ns;
   while (!stop_.load(std::memory_order_acquire)) {
-    const timespec ts = to_timespec(deadline);
+    const timespec ts = to_timespec(deadline - early);
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
-    const std::int64_t t0 = monotonic_ns();
+    std::int64_t t0 = monotonic_ns();
+    while (t0 < deadline) t0 = monotonic_ns();  // woken early on purpose: hold the CPU to the deadline
     const std::uint64_t cpu0 = thread_cpu_ns();
     const int cpu = sched_getcpu();
     stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));

@@ -60,6 +60,11 @@ struct SimThreadOptions {
   std::uint64_t max_ticks = 0;   // stop by itself after this many ticks (0: run until stop())
   bool realtime = false;         // SCHED_FIFO + mlockall, when permitted
   int realtime_priority = 50;    // SCHED_FIFO priority, 1..99
+  // Sleep until this long before each deadline, then spin to it: the thread
+  // then holds its CPU when the deadline comes, so a wake-up delayed by the
+  // host or by another task's system call costs this much less (at this much
+  // CPU per period). 0..period/2.
+  std::int64_t wake_early_ns = 0;
   // The tick number of the world's first tick here (a scene swapped in mid-run
   // continues the old timeline: queued inputs and viewers' sequences go on).
   // The stats' tick count starts there too.

@@ -93,7 +93,7 @@ const toml::table* sub_table(const Path& file, const toml::table& root, std::str
 void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "daemon",
              {"scene", "socket", "rate_hz", "input", "input_clock", "input_delay_ms", "duration", "realtime",
-              "realtime_priority", "log_level", "stats_json", "hash_out", "watchdog_fraction"});
+              "realtime_priority", "wake_early_us", "log_level", "stats_json", "hash_out", "watchdog_fraction"});
   const Reader r{file, t, "daemon"};
   r.get("scene", c.scene);
   r.get("socket", c.socket);
@@ -116,6 +116,8 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("duration", c.duration_s, 0.0, 1e9);
   r.get("realtime", c.realtime);
   r.get("realtime_priority", c.realtime_priority, 1, 99);
+  double early = 0;
+  if (r.get("wake_early_us", early, 0.0, 500.0)) c.wake_early_us = early;
   if (r.get("log_level", s) && !log::parse_level(s, c.log_level))
     fail(file, *t.get("log_level"), "daemon.log_level", "must be one of error, warning, notice, info, debug");
   r.get("stats_json", c.stats_json);

@@ -52,6 +52,7 @@ constexpr std::size_t kRingCapacity = 4096;                 // io → sim messag
 // seconds on a loaded machine still delivers every frame before its tick:
 // a late one would make the run differ from the recording.
 constexpr std::size_t kReplayRingCapacity = 16384;
+constexpr double kRealtimeWakeEarlyUs = 100.0;  // wake_early_us's default with --realtime (docs/daemon.md)
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;       // duration check, replay pump, watchdog
 constexpr std::chrono::seconds kStatusEvery{5};
 
@@ -357,6 +358,11 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     so.rate_hz = rate_;
     so.realtime = cfg_.realtime;
     so.realtime_priority = cfg_.realtime_priority;
+    // A SCHED_FIFO thread spinning to its deadline holds its CPU when the
+    // deadline comes; without --realtime, spinning buys little. At most half
+    // the period (a high --rate shrinks it below the configured value).
+    const double early_us = cfg_.wake_early_us.value_or(cfg_.realtime ? kRealtimeWakeEarlyUs : 0.0);
+    so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), std::llround(0.5e9 / rate_));
     so.first_tick = first_tick;
     if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
     sim_ = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);

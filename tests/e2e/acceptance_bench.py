@@ -3,7 +3,7 @@
 replayed session for 30 s at 1 kHz, stats from sculptd's own --stats-json.
 
     acceptance_bench.py --sculptd BIN --scene S --session R [--duration 30]
-                        [--repeats 3] [--realtime both|on|off]
+                        [--repeats 3] [--realtime both|on|off] [--config FILE]
 
 Runs `sculptd --scene S --input replay:R --duration D --stats-json F`
 (and the same with --realtime), `repeats` times each, and prints per run and
@@ -43,7 +43,7 @@ def loadavg():
 def run(a, realtime, tmp, i):
     stats = os.path.join(tmp, f"stats-{realtime}-{i}.json")
     hash_out = os.path.join(tmp, f"hash-{realtime}-{i}")
-    cmd = [a.sculptd, "--config", os.devnull, "--scene", a.scene, "--input", "replay:" + a.session,
+    cmd = [a.sculptd, "--config", a.config, "--scene", a.scene, "--input", "replay:" + a.session,
            "--duration", str(a.duration), "--stats-json", stats, "--hash-out", hash_out, "--log-level", "warning"]
     if realtime:
         cmd.append("--realtime")
@@ -100,6 +100,7 @@ def main():
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--realtime", choices=["both", "on", "off"], default="both")
+    ap.add_argument("--config", default=os.devnull, help="sculptd config file (default: none, every default)")
     a = ap.parse_args()
     modes = {"both": [False, True], "on": [True], "off": [False]}[a.realtime]
     print(f"# sculptd acceptance: {a.scene}, replay:{a.session}, {a.duration} s, {a.repeats} run(s) per mode")

@@ -27,6 +27,7 @@ TEST(Config, DefaultsWithoutAFile) {
   EXPECT_EQ(c.input.kind, InputSpec::Kind::automatic);
   EXPECT_EQ(c.input_clock, InputClock::arrival);
   EXPECT_FALSE(c.realtime);
+  EXPECT_FALSE(c.wake_early_us.has_value());  // the daemon picks by realtime
   EXPECT_EQ(c.log_level, log::Level::info);
   EXPECT_TRUE(c.haptics.enabled);
 }
@@ -48,6 +49,7 @@ input_delay_ms = 20
 duration = 3.5
 realtime = true
 realtime_priority = 70
+wake_early_us = 150
 log_level = "debug"
 stats_json = "/tmp/stats.json"
 hash_out = "/tmp/hash"
@@ -92,6 +94,7 @@ name = "pad"
   EXPECT_EQ(c.duration_s, 3.5);
   EXPECT_TRUE(c.realtime);
   EXPECT_EQ(c.realtime_priority, 70);
+  EXPECT_EQ(c.wake_early_us.value_or(-1), 150.0);
   EXPECT_EQ(c.log_level, log::Level::debug);
   EXPECT_EQ(c.stats_json, "/tmp/stats.json");
   EXPECT_EQ(c.hash_out, "/tmp/hash");
@@ -128,6 +131,7 @@ TEST(Config, ErrorsNameFileLineAndKey) {
   EXPECT_NE(error_of("[daemon]\ninput = \"joystick\"\n").find("test.conf:2: daemon.input:"), std::string::npos);
   EXPECT_NE(error_of("[daemon]\ninput_clock = \"wall\"\n").find("daemon.input_clock"), std::string::npos);
   EXPECT_NE(error_of("[daemon]\nlog_level = \"loud\"\n").find("daemon.log_level"), std::string::npos);
+  EXPECT_EQ(error_of("[daemon]\nwake_early_us = 900\n"), "test.conf:2: daemon.wake_early_us: must be within [0, 500]");
   EXPECT_NE(error_of("[haptics]\ngain = 70000\n").find("test.conf:2: haptics.gain: must be within"), std::string::npos);
   EXPECT_NE(error_of("[tools]\nsize_step = 1\n").find("tools.size_step"), std::string::npos);
   EXPECT_NE(error_of("daemon = 3\n").find("daemon: must be a table"), std::string::npos);

@@ -151,6 +151,24 @@ TEST(SimThread, NothingIsAllocatedOnTheSimThreadOnceItRuns) {
   EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated while ticking";
 }
 
+TEST(SimThread, WakingEarlyStillRunsEveryTickOnceInOrderWithoutAllocating) {
+  auto world = small_world();
+  PressStages stages;
+  SimThreadOptions o;
+  o.max_ticks = 200;
+  o.wake_early_ns = 200'000;
+  SimThread thread(world, stages, 1, o);
+  support::reset_counted_allocations();
+  thread.start();
+  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  thread.stop();
+  EXPECT_EQ(thread.ticks(), 200u);
+  EXPECT_EQ(stages.inputs.load(), 200u);
+  EXPECT_FALSE(stages.out_of_order.load());
+  EXPECT_EQ(thread.stats().jitter.count(), 200u);
+  EXPECT_EQ(support::counted_allocations(), 0);
+}
+
 TEST(SimThread, BadRatesAreRejected) {
   auto world = small_world();
   PressStages stages;
@@ -159,6 +177,11 @@ TEST(SimThread, BadRatesAreRejected) {
   EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
   o.rate_hz = 1000;
   o.realtime_priority = 0;
+  EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
+  o.realtime_priority = 50;
+  o.wake_early_ns = 600'000;  // more than half the 1 ms period
+  EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
+  o.wake_early_ns = -1;
   EXPECT_THROW(SimThread(world, stages, 1, o), std::invalid_argument);
 }
 
