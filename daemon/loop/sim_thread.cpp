@@ -86,7 +86,11 @@ RealtimeResult SimThread::start() {
     if (err == 0) rt.fifo = true;
     else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
                                "): running at normal priority; grant CAP_SYS_NICE or an RLIMIT_RTPRIO");
-    if (auto w = preemption_warning(current_preemption_model())) rt.warnings.push_back(*w);
+    // The kernel's preemption model does not change while we run: say it once
+    // per process, not at every scene swap.
+    static std::atomic<bool> preemption_checked{false};
+    if (!preemption_checked.exchange(true))
+      if (auto w = preemption_warning(current_preemption_model())) rt.warnings.push_back(*w);
   }
   return rt;
 }
