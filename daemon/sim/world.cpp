@@ -526,6 +526,22 @@ void World<S>::restore(Body<S>& b) {
   update_box(b);
 }
 
+// The arrays of a body the kernels read: state, rest shape, springs and the
+// current packed records (float bodies that have them). Material constants
+// and outputs are the caller's.
+template <class S>
+kernel::ForceArgs<S> World<S>::network_args(Body<S>& b) {
+  kernel::ForceArgs<S> fa{};
+  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
+  fa.wx = b.wx.data(), fa.wy = b.wy.data(), fa.wz = b.wz.data();
+  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
+  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
+  fa.overflow = b.overflow.data();
+  if constexpr (std::is_same_v<S, float>)
+    if (!b.packed[0].empty()) fa.packed = b.packed[b.packed_cur].data();
+  return fa;
+}
+
 template <class S>
 void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
   const S y = static_cast<S>(b.material.yield_strain);
@@ -537,13 +553,9 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
   // Most of a block is far from yielding: a vectorised pass over squared
   // lengths marks what might yield, and only those get the exact test below
   // (same bits as testing every entry).
-  kernel::ForceArgs<S> fa{};
-  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
-  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
-  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
+  kernel::ForceArgs<S> fa = network_args(b);
   // The current packed records match x, y, z here (the step and every push keep them so).
-  if constexpr (std::is_same_v<S, float>)
-    if (springs && !b.packed[0].empty()) fa.packed = b.packed[b.packed_cur].data();
+  if (!springs) fa.packed = nullptr;
   std::uint8_t* mask = yield_mask_.data();
   const bool marked = kernel::yield_candidates(fa, y, limit, springs, b0, b1, mask);
   constexpr std::uint32_t kRow = kBlock / 8;
@@ -630,15 +642,7 @@ void World<S>::step_body(std::uint32_t bi) {
     s.dirty = true;
   }
 
-  kernel::ForceArgs<S> fa{};
-  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
-  fa.wx = b.wx.data(), fa.wy = b.wy.data(), fa.wz = b.wz.data();
-  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
-  fa.nbr = b.nbr.data();
-  fa.rest_length = b.rest_length.data();
-  fa.stride = b.n;
-  fa.slots = b.slots;
-  fa.overflow = b.overflow.data();
+  kernel::ForceArgs<S> fa = network_args(b);
   fa.stiffness = static_cast<S>(m.stiffness);
   fa.damping = static_cast<S>(m.damping);
   fa.anchor = static_cast<S>(m.anchor);
@@ -647,7 +651,6 @@ void World<S>::step_body(std::uint32_t bi) {
   fa.inv_dt = S(1) / dts;
   for (int k = 0; k < 3; ++k) fa.gravity_force[k] = m.gravity ? static_cast<S>(m.mass * settings_.gravity[k]) : S(0);
   fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();
-  fa.packed = b.packed[0].empty() ? nullptr : b.packed[b.packed_cur].data();
   kernel::IntegrateArgs<S> ia{b.x.data(), b.y.data(), b.z.data(), b.wx.data(), b.wy.data(), b.wz.data(),
                               b.ax.data(), b.ay.data(), b.az.data(), dts, S(1) / dts};
   const kernel::Velocity vel = verlet ? kernel::Velocity::step : kernel::Velocity::stored;

@@ -112,6 +112,7 @@ class World {
   void wake(Body<S>& b, std::uint32_t blk);
   void sleep(Body<S>& b, std::uint32_t blk);
   void refit(Body<S>& b, std::uint32_t blk);
+  static kernel::ForceArgs<S> network_args(Body<S>& b);
   void plastic_flow(Body<S>& b, std::uint32_t blk);
   void snapshot(Body<S>& b, std::uint32_t blk);
   void restore(Body<S>& b);
