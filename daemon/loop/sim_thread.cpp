@@ -13,7 +13,6 @@
 #include <stdexcept>
 #include <system_error>
 
-#include "loop/preemption.hpp"
 
 namespace sculpt::loop {
 
@@ -86,11 +85,6 @@ RealtimeResult SimThread::start() {
     if (err == 0) rt.fifo = true;
     else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
                                "): running at normal priority; grant CAP_SYS_NICE or an RLIMIT_RTPRIO");
-    // The kernel's preemption model does not change while we run: say it once
-    // per process, not at every scene swap.
-    static std::atomic<bool> preemption_checked{false};
-    if (!preemption_checked.exchange(true))
-      if (auto w = preemption_warning(current_preemption_model())) rt.warnings.push_back(*w);
   }
   return rt;
 }
@@ -126,7 +120,9 @@ void SimThread::run() {
   auto& stage = stats_.stage;
   const std::int64_t early = options_.wake_early_ns;
   while (!stop_.load(std::memory_order_acquire)) {
-    const timespec ts = to_timespec(deadline - early);
+    // Paused, nothing needs the deadline kept to the microsecond: no spin.
+    const bool was_paused = stats_.paused.load(std::memory_order_relaxed);
+    const timespec ts = to_timespec(deadline - (was_paused ? 0 : early));
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
     std::int64_t t0 = monotonic_ns();
