@@ -215,16 +215,10 @@ long child_peak_rss(const Options& o) {
 }
 
 int throughput(const Options& o) {
-  if (o.steps < 1 || o.repeats < 1) throw std::invalid_argument("--steps and --repeats must be >= 1");
   const long fast_only_rss = o.impl == "baseline" ? -1 : child_peak_rss(o);
   const sim::TriangleMesh mesh = load_mesh_spec(o.mesh);
   sim::Material material;
   if (o.model == "linear") material.model = sim::ForceModel::linear;
-  else if (o.model != "spring") throw std::invalid_argument("--model must be spring or linear");
-  if (o.precision != "float" && o.precision != "double") throw std::invalid_argument("--precision must be float or double");
-  if (o.tool != "none" && o.tool != "sphere") throw std::invalid_argument("--tool must be none or sphere");
-  if (o.impl != "both" && o.impl != "fast" && o.impl != "baseline")
-    throw std::invalid_argument("--impl must be both, fast or baseline");
   const Press press(mesh);
 
   std::optional<sim::BaselineBody> baseline;
@@ -286,12 +280,13 @@ Command add_throughput(CLI::App& app) {
   static Options o;
   CLI::App* tp = app.add_subcommand("throughput", "steps per second of one mesh under a pressing tool, fast vs baseline");
   tp->add_option("--mesh", o.mesh, "builtin:icosphere[:N] | builtin:torus[:R:r:rings:sides] | builtin:box[:cells] | FILE");
-  tp->add_option("--model", o.model, "spring | linear");
-  tp->add_option("--precision", o.precision, "float | double");
-  tp->add_option("--tool", o.tool, "none | sphere");
-  tp->add_option("--steps", o.steps, "timed ticks per repeat");
-  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)");
-  tp->add_option("--impl", o.impl, "both | fast | baseline");
+  // Checked at parse time: the peak-memory child runs before throughput() looks at them.
+  tp->add_option("--model", o.model, "spring | linear")->check(CLI::IsMember({"spring", "linear"}));
+  tp->add_option("--precision", o.precision, "float | double")->check(CLI::IsMember({"float", "double"}));
+  tp->add_option("--tool", o.tool, "none | sphere")->check(CLI::IsMember({"none", "sphere"}));
+  tp->add_option("--steps", o.steps, "timed ticks per repeat")->check(CLI::PositiveNumber);
+  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)")->check(CLI::PositiveNumber);
+  tp->add_option("--impl", o.impl, "both | fast | baseline")->check(CLI::IsMember({"both", "fast", "baseline"}));
   tp->add_option("--records", o.records, "packed neighbour records (AVX2 path): auto (by mesh size) | on | off")
       ->check(CLI::IsMember({"auto", "on", "off"}));
   tp->add_flag("--json", o.json, "one JSON line");
