@@ -89,6 +89,10 @@ TEST(Cli, ErrorsNameWhatWasWrong) {
   std::tie(rc, log) = run({"--scene", "builtin:default", "--snapshot", dir + "/no/such/dir/x.png", "--quiet"});
   EXPECT_EQ(rc, 1);
   EXPECT_NE(log.find("no/such/dir/x.png"), std::string::npos) << log;
+  // Offscreen with nothing to write would render into the void forever.
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--headless"});
+  EXPECT_EQ(rc, 2);
+  EXPECT_NE(log.find("nothing to write"), std::string::npos) << log;
   std::tie(rc, log) = run({"--frobnicate"});
   EXPECT_EQ(rc, 2);
   EXPECT_NE(log.find("--frobnicate"), std::string::npos) << log;

@@ -29,6 +29,12 @@ int main(int argc, char** argv) {
       return 2;
     }
 #endif
+    if (headless && options->snapshot.empty() && options->frames_dir.empty()) {
+      fmt::print(stderr, "sculpt-view: {}: nothing to write; give --snapshot FILE.png or --frames-dir DIR, "
+                         "or run it under a display for a window\n",
+                 display ? "--headless" : "no display (neither DISPLAY nor WAYLAND_DISPLAY is set)");
+      return 2;
+    }
     check_outputs(*options);
     auto source = options->scene.empty() ? make_live_source(*options) : make_offline_source(options->scene);
     if (headless) return run_headless(*options, *source);

@@ -64,6 +64,9 @@ void check_outputs(const Options& o) {
   if (!o.snapshot.empty() && !dir.empty() && !std::filesystem::is_directory(dir)) {
     throw std::runtime_error(fmt::format("{}: cannot write: no directory {}", o.snapshot, dir.string()));
   }
+  if (!o.screenshot_dir.empty() && !std::filesystem::is_directory(o.screenshot_dir)) {
+    throw std::runtime_error(fmt::format("--screenshot-dir {}: no such directory", o.screenshot_dir));
+  }
 }
 
 std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {

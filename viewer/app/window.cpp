@@ -199,9 +199,15 @@ int run_window(const Options& options, Source& source) {
     };
     if (want_screenshot) {
       want_screenshot = false;
-      const std::string file = screenshot_name(options.screenshot_dir);
-      write_png(file, read());
-      fmt::print(stderr, "sculpt-view: screenshot {}\n", file);
+      // A screenshot that cannot be written (no directory, disk full) is
+      // reported; the live view the user is working in stays open.
+      try {
+        const std::string file = screenshot_name(options.screenshot_dir);
+        write_png(file, read());
+        fmt::print(stderr, "sculpt-view: screenshot {}\n", file);
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "sculpt-view: screenshot not written: {}\n", e.what());
+      }
     }
     const bool more = run.after_frame(read);
     SDL_GL_SwapWindow(window.window);
