@@ -103,15 +103,25 @@ class SessionImpl final : public proto::Session::Server {
   kj::Promise<void> pause(PauseContext context) override {
     const std::string error = server_.control().set_paused(true);
     if (!error.empty()) return result(context.getResults().initResult(), error);
-    return server_.until_paused(true).then([context]() mutable { context.getResults().initResult().setOk(true); });
+    return answer_when_paused(context.getResults().initResult(), true);
   }
   kj::Promise<void> resume(ResumeContext context) override {
     const std::string error = server_.control().set_paused(false);
     if (!error.empty()) return result(context.getResults().initResult(), error);
-    return server_.until_paused(false).then([context]() mutable { context.getResults().initResult().setOk(true); });
+    return answer_when_paused(context.getResults().initResult(), false);
   }
 
  private:
+  // ok only once the sim thread has obeyed: a stalled or finished one never does,
+  // and a snapshot taken after pause() answers ok must be the final state.
+  kj::Promise<void> answer_when_paused(proto::Result::Builder r, bool paused) {
+    return server_.until_paused(paused).then([r, paused](bool obeyed) mutable {
+      r.setOk(obeyed);
+      if (!obeyed)
+        r.setError(paused ? "the simulation thread did not pause within 2 s (stalled or finished)"
+                          : "the simulation thread did not resume within 2 s (stalled or finished)");
+    });
+  }
   static kj::Promise<void> result(proto::Result::Builder r, const std::string& error) {
     r.setOk(error.empty());
     r.setError(error);
@@ -313,9 +323,10 @@ void Server::set_tolerance(std::uint64_t id, float tolerance) {
     it->second->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
 }
 
-kj::Promise<void> Server::until_paused(bool paused, int tries) {
+kj::Promise<bool> Server::until_paused(bool paused, int tries) {
   // The sim thread applies it within a period; a stopped one never does.
-  if (control_.paused_now() == paused || tries <= 0) return kj::READY_NOW;
+  if (control_.paused_now() == paused) return true;
+  if (tries <= 0) return false;
   return io_.provider->getTimer().afterDelay(1 * kj::MILLISECONDS).then([this, paused, tries] {
     return until_paused(paused, tries - 1);
   });

@@ -95,8 +95,8 @@ class Server {
   void set_rate(std::uint64_t id, float fps);
   void set_tolerance(std::uint64_t id, float tolerance);
   void said_hello(std::uint64_t client);
-  // Resolves once the sim thread runs as asked (or after `tries` ms).
-  kj::Promise<void> until_paused(bool paused, int tries = 2000);
+  // Resolves true once the sim thread reports `paused`, false after `tries` ms.
+  kj::Promise<bool> until_paused(bool paused, int tries = 2000);
   const ServerOptions& options() const { return options_; }
 
  private:
