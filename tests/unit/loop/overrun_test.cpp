@@ -117,8 +117,13 @@ TEST(OverrunLog, CountsEveryCauseAndKeepsTheLastEightOldestFirst) {
 TEST(OverrunLog, AReaderGetsWholeRecordsWhileTheWriterRuns) {
   OverrunLog log;
   std::atomic<bool> done{false};
+  std::atomic<std::uint64_t> reads{0};
   std::thread writer([&] {
     for (std::uint64_t i = 0; i < 20000; ++i) {
+      // Halfway, wait for the reader to have read: on a busy machine the
+      // writer could otherwise finish before the reader ran at all.
+      if (i == 10000)
+        while (reads.load() == 0) std::this_thread::yield();
       OverrunRecord r;
       r.tick = i;
       r.late_ns = static_cast<std::int64_t>(i);  // every field of a record derives from its tick
@@ -127,7 +132,6 @@ TEST(OverrunLog, AReaderGetsWholeRecordsWhileTheWriterRuns) {
     }
     done = true;
   });
-  std::uint64_t reads = 0;
   while (!done.load()) {
     std::uint64_t last = 0;
     bool first = true;
@@ -144,7 +148,7 @@ TEST(OverrunLog, AReaderGetsWholeRecordsWhileTheWriterRuns) {
     ++reads;
   }
   writer.join();
-  EXPECT_GT(reads, 0u);
+  EXPECT_GT(reads.load(), 0u);
   EXPECT_EQ(log.recent().back().tick, 19999u);
 }
 
