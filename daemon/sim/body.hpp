@@ -51,6 +51,7 @@ struct BlockState {
   bool changed = false;   // integrated or pushed this tick
   bool dirty = false;     // changed since the last good-state snapshot
   bool accel_current = false;  // ax..az hold the forces of the present state (velocity Verlet's opening kick needs them)
+  bool grabbed = false;   // holds a grabbed vertex (set and cleared within one substep of step_body)
 };
 
 // Per tool and body: candidate blocks this tick and the vertices a grab holds.

@@ -661,9 +661,11 @@ void World<S>::step_body(std::uint32_t bi) {
   bool grabbing = false;
   for (std::uint32_t t = 0; t < tool_slots_; ++t) grabbing = grabbing || b.tools[t].grabbing;
   // The fused single pass needs neighbours read from the packed buffer (AVX2
-  // path), forces before any kick (not velocity Verlet) and no grab springs.
+  // path) and forces before any kick (not velocity Verlet). Blocks holding
+  // grabbed vertices step in pieces inside it (their grab springs go in
+  // between forces and integration).
   const bool fused =
-      !b.packed[0].empty() && integ != Integrator::velocity_verlet && !grabbing && kernel::packed_path_active();
+      !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::packed_path_active();
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
@@ -695,35 +697,9 @@ void World<S>::step_body(std::uint32_t bi) {
       s.max_speed2_bits = std::max(s.max_speed2_bits, key);
       if (last) s.energy = pe_scratch_[q] + 0.5 * m.mass * double(sums.sum_speed2);
     };
-    if (fused) {
-      // One pass per block while its data is in L1: forces (neighbours from the
-      // current packed buffer), integrate, then pack into the other buffer.
-      if constexpr (std::is_same_v<S, float>) {
-        fa.packed = b.packed[b.packed_cur].data();
-        float* next = b.packed[b.packed_cur ^ 1].data();
-        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-          const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
-          float potential = 0;
-          const kernel::BlockSums<float> sums = kernel::step_block_fused(
-              fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
-          pe_scratch_[q] = potential;
-          account(q, sums);
-        }
-        b.packed_cur ^= 1;
-      }
-    } else {
-      if constexpr (std::is_same_v<S, float>) {
-        if (fa.packed)
-          for (std::uint32_t q = 0; q < b.awake_count; ++q)
-            kernel::pack(fa, m.model, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
-                         b.end_of(b.awake_list[q]));
-      }
-      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-        const std::uint32_t blk = b.awake_list[q];
-        pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
-                                        b.overflow_begin[blk + 1]);
-      }
-      // Grabbed vertices follow the tool through a spring each; the tool feels the pull back.
+    // Grabbed vertices follow the tool through a spring each; the tool feels
+    // the pull back. Reads x before any block of this substep integrates.
+    auto grab_springs = [&] {
       for (std::uint32_t t = 0; t < tool_slots_; ++t) {
         ToolContact<S>& tc = b.tools[t];
         if (!tc.grabbing) continue;
@@ -738,6 +714,61 @@ void World<S>::step_body(std::uint32_t bi) {
         }
         tr.contacts = std::max(tr.contacts, tc.grab_count);
       }
+    };
+    if (fused) {
+      // One pass per block while its data is in L1: forces (neighbours from the
+      // current packed buffer), integrate, then pack into the other buffer.
+      if constexpr (std::is_same_v<S, float>) {
+        fa.packed = b.packed[b.packed_cur].data();
+        float* next = b.packed[b.packed_cur ^ 1].data();
+        if (grabbing) {
+          // A block holding grabbed vertices goes in pieces: its forces now
+          // (nothing has integrated yet, and neighbours come from the current
+          // packed buffer either way), the grab springs, and below integrate
+          // and pack. The same operations in the same order as the unfused
+          // path: the same bits.
+          for (std::uint32_t t = 0; t < tool_slots_; ++t)
+            if (b.tools[t].grabbing)
+              for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = true;
+          for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+            const std::uint32_t blk = b.awake_list[q];
+            if (b.block[blk].grabbed)
+              pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk),
+                                              b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+          }
+          grab_springs();
+        }
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
+          if (b.block[blk].grabbed) {
+            account(q, kernel::integrate(ia, integ, b0, b1));
+            kernel::pack(fa, m.model, vel, next, b0, b1);
+            continue;
+          }
+          float potential = 0;
+          const kernel::BlockSums<float> sums = kernel::step_block_fused(
+              fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
+          pe_scratch_[q] = potential;
+          account(q, sums);
+        }
+        if (grabbing)
+          for (std::uint32_t t = 0; t < tool_slots_; ++t)
+            for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = false;
+        b.packed_cur ^= 1;
+      }
+    } else {
+      if constexpr (std::is_same_v<S, float>) {
+        if (fa.packed)
+          for (std::uint32_t q = 0; q < b.awake_count; ++q)
+            kernel::pack(fa, m.model, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
+                         b.end_of(b.awake_list[q]));
+      }
+      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+        const std::uint32_t blk = b.awake_list[q];
+        pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
+                                        b.overflow_begin[blk + 1]);
+      }
+      grab_springs();
       for (std::uint32_t q = 0; q < b.awake_count; ++q) {
         const std::uint32_t blk = b.awake_list[q];
         account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
