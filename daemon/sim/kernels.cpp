@@ -393,11 +393,15 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
 // the packed array and transposed to x/y/z lanes. Every arithmetic step is the
 // one pair_force() does, in the same order, without fused multiply-adds:
 // identical bits. Accumulates into f and pe, in slot order.
-template <ForceModel M>
+// With Yield (spring model), also marks[s · kBlock/8] = the springs whose
+// length is past ±yield of their rest length: World::plastic_flow's exact test
+// (same length bits, same thresholds), from the length the force needs anyway.
+template <ForceModel M, bool Yield = false>
 __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
     const float* __restrict P, const std::int32_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
     int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
-    __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe) {
+    __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8 = {},
+    __m256 down8 = {}, std::uint8_t* marks = nullptr) {
   for (int s = 0; s < slots; ++s) {
     const std::int32_t* nb = nb0 + s * stride;
     const float* p[8];
@@ -418,7 +422,13 @@ __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
       const __m256 len = _mm256_sqrt_ps(
           _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
       const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
-      const __m256 stretch = _mm256_sub_ps(len, _mm256_loadu_ps(L0 + s * stride));
+      const __m256 rest = _mm256_loadu_ps(L0 + s * stride);
+      const __m256 stretch = _mm256_sub_ps(len, rest);
+      if constexpr (Yield) {
+        const __m256 past = _mm256_or_ps(_mm256_cmp_ps(len, _mm256_mul_ps(rest, up8), _CMP_GT_OQ),
+                                         _mm256_cmp_ps(len, _mm256_mul_ps(rest, down8), _CMP_LT_OQ));
+        marks[static_cast<std::size_t>(s) * (kBlock / 8)] = static_cast<std::uint8_t>(_mm256_movemask_ps(past));
+      }
       const __m256 dvd =
           _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
       const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
@@ -460,7 +470,7 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
     __m256 pe = _mm256_load_ps(w.pe + i);
     accumulate_slots8<M>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
-                         tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe);
+                         tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
     _mm256_store_ps(w.fx + i, fx);
     _mm256_store_ps(w.fy + i, fy);
     _mm256_store_ps(w.fz + i, fz);
@@ -775,13 +785,21 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
 // without the scalar prologue loops, the acceleration round trip and the
 // re-reads. Blocks with overflow neighbours keep the forces in the scratch
 // until their extras are added (a vertex sums slots first, then extras).
-template <ForceModel M, Velocity V, Integrator I>
+template <ForceModel M, Velocity V, Integrator I, bool Yield = false>
 __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const ForceArgs<float>& A,
                                                                        const IntegrateArgs<float>& In,
                                                                        std::uint32_t begin, std::uint32_t ob,
                                                                        std::uint32_t oe, float* packed_next,
-                                                                       float& potential) {
+                                                                       float& potential, const YieldArgs* ya = nullptr) {
   static_assert(kBlock % 8 == 0);
+  static_assert(!Yield || M == ForceModel::spring, "yield marks: spring model only");
+  __m256 up8{}, down8{}, limit8{};
+  std::uint8_t* marks = nullptr;
+  if constexpr (Yield) {
+    up8 = _mm256_set1_ps(1.0f + ya->yield), down8 = _mm256_set1_ps(1.0f - ya->yield);
+    limit8 = _mm256_set1_ps(ya->anchor_limit);
+    marks = ya->mask;
+  }
   const float k = A.stiffness, c = A.damping;
   const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(0.25f * k);
   const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
@@ -833,10 +851,16 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
         _mm256_mul_ps(half_ka, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
                                              _mm256_mul_ps(dz, dz))),
         _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, dx), _mm256_mul_ps(gy, dy)), _mm256_mul_ps(gz, dz)));
+    if constexpr (Yield) {  // plastic_flow's anchor test: |x − r| > limit (the same squares, the same sums)
+      const __m256 u = _mm256_sqrt_ps(
+          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+      marks[i / 8] = static_cast<std::uint8_t>(_mm256_movemask_ps(_mm256_cmp_ps(u, limit8, _CMP_GT_OQ)));
+    }
     __m256 xi = x, yi = y, zi = z;
     if constexpr (M == ForceModel::linear) xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
-    accumulate_slots8<M>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
-                              one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe);
+    accumulate_slots8<M, Yield>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
+                                one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe, up8, down8,
+                                marks ? marks + kBlock / 8 + i / 8 : nullptr);
     if (extras) {
       _mm256_store_ps(w.fx + i, fx), _mm256_store_ps(w.fy + i, fy), _mm256_store_ps(w.fz + i, fz);
       _mm256_store_ps(w.pe + i, pe);
@@ -862,15 +886,28 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
 
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
-                                  std::uint32_t oe, float* packed_next, float& potential) {
+                                  std::uint32_t oe, float* packed_next, float& potential, const YieldArgs* yield) {
+  const bool spring = model == ForceModel::spring;
+  [[maybe_unused]] const bool whole = end - begin == kBlock && !g_block_pieces.load(std::memory_order_relaxed);
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   constexpr auto BD = Velocity::step;
   constexpr auto ST = Velocity::stored;
   constexpr auto PV = Integrator::position_verlet;
   constexpr auto SE = Integrator::symplectic_euler;
-  const bool spring = model == ForceModel::spring;
+  if (yield && spring && whole) {  // the marks come with the forces
+    if (integrator == PV)
+      return fused_full_block_avx2<ForceModel::spring, BD, PV, true>(a, in, begin, ob, oe, packed_next, potential,
+                                                                      yield);
+    if (integrator == SE)
+      return fused_full_block_avx2<ForceModel::spring, ST, SE, true>(a, in, begin, ob, oe, packed_next, potential,
+                                                                      yield);
+  }
+#endif
+  // Otherwise from the state before this block moves.
+  if (yield) yield_candidates(a, yield->yield, yield->anchor_limit, spring, begin, end, yield->mask);
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   // Every block but a body's last one (unless the testing knob asks for the pieces).
-  if (end - begin == kBlock && !g_block_pieces.load(std::memory_order_relaxed)) {
+  if (whole) {
     if (integrator == PV)
       return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV>(a, in, begin, ob, oe, packed_next, potential)
                     : fused_full_block_avx2<ForceModel::linear, BD, PV>(a, in, begin, ob, oe, packed_next, potential);

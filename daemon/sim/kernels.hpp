@@ -92,9 +92,20 @@ void pack(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* pack
 // packed velocities are the integrator's own); skips the acceleration buffer.
 // A whole block (kBlock vertices) goes through in one pass of eight-vertex
 // groups whose state stays in registers from the anchor to the packed record.
+//
+// Clay (spring model): with `yield`, also marks in yield->mask (the layout of
+// yield_candidates) the entries of the state the step starts from that might
+// yield. A whole block gets them from the lengths its forces compute anyway
+// (exact tests, no second pass over the neighbours); a partial block from
+// yield_candidates. The caller applies the yields afterwards.
+struct YieldArgs {
+  std::uint8_t* mask;  // (1 + slots) · kBlock/8 bytes
+  float yield, anchor_limit;
+};
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
-                                  std::uint32_t oe, float* packed_next, float& potential);
+                                  std::uint32_t oe, float* packed_next, float& potential,
+                                  const YieldArgs* yield = nullptr);
 
 // Clay: marks the entries of block [begin, end) (≤ kBlock vertices) that might
 // yield, conservatively (squared lengths, a relative margin of 1e-4): one bit

@@ -83,8 +83,9 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   pe_scratch_.resize(std::max<std::size_t>(pe_scratch_.size(), added.blocks));
   outcode_stamp_.resize(pe_scratch_.size());
   outcode_.resize(std::max<std::size_t>(outcode_.size(), added.n));
-  const std::size_t mask_bytes = (1 + static_cast<std::size_t>(added.slots)) * (kBlock / 8);
-  yield_mask_.resize(std::max(yield_mask_.size(), mask_bytes));
+  // Clay: one yield mask per awake block (the fused pass marks them all before any is applied).
+  if (added.plastic)
+    yield_masks_.resize(std::max(yield_masks_.size(), yield_mask_bytes(added) * added.blocks));
   return static_cast<std::uint32_t>(bodies_.size() - 1);
 }
 
@@ -543,21 +544,45 @@ kernel::ForceArgs<S> World<S>::network_args(Body<S>& b) {
 }
 
 template <class S>
-void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
-  const S y = static_cast<S>(b.material.yield_strain);
-  // Anchor: the rest position follows the vertex once it is more than
+S World<S>::anchor_limit(const Body<S>& b) {
+  // The anchor's rest position follows the vertex once it is more than
   // yield·(mean edge) away, so the anchor stops pulling the dent back out.
-  const S limit = y * b.mean_edge;
+  return static_cast<S>(b.material.yield_strain) * b.mean_edge;
+}
+
+template <class S>
+std::size_t World<S>::yield_mask_bytes(const Body<S>& b) {
+  return (1 + static_cast<std::size_t>(b.slots)) * (kBlock / 8);
+}
+
+// Clay yield of one block on the present x (the unfused paths call it before
+// integrating): a vectorised pass over squared lengths marks what might yield,
+// and only those get the exact test (same bits as testing every entry).
+template <class S>
+void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk, std::uint8_t* mask) {
   const bool springs = b.material.model == ForceModel::spring;
-  const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
-  // Most of a block is far from yielding: a vectorised pass over squared
-  // lengths marks what might yield, and only those get the exact test below
-  // (same bits as testing every entry).
   kernel::ForceArgs<S> fa = network_args(b);
   // The current packed records match x, y, z here (the step and every push keep them so).
   if (!springs) fa.packed = nullptr;
-  std::uint8_t* mask = yield_mask_.data();
-  const bool marked = kernel::yield_candidates(fa, y, limit, springs, b0, b1, mask);
+  if (kernel::yield_candidates(fa, static_cast<S>(b.material.yield_strain), anchor_limit(b), springs, b.begin_of(blk),
+                               b.end_of(blk), mask))
+    plastic_apply(b, blk, mask, nullptr);
+}
+
+// The exact yield tests and clamps for the entries marked in mask, with the
+// positions the step started from: x, or (spring model, fused pass, which has
+// already moved x) the current packed records, which hold the same bits.
+template <class S>
+void World<S>::plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const S* records) {
+  const S y = static_cast<S>(b.material.yield_strain);
+  const S limit = anchor_limit(b);
+  const bool springs = b.material.model == ForceModel::spring;
+  const std::uint32_t b0 = b.begin_of(blk);
+  auto pos = [&](std::uint32_t i) -> std::array<S, 3> {
+    if (records) return {records[8 * static_cast<std::size_t>(i)], records[8 * static_cast<std::size_t>(i) + 1],
+                         records[8 * static_cast<std::size_t>(i) + 2]};
+    return {b.x[i], b.y[i], b.z[i]};
+  };
   constexpr std::uint32_t kRow = kBlock / 8;
   // Calls f(i) for every marked vertex of a row, in ascending order.
   auto each_marked = [&](const std::uint8_t* row, auto&& f) {
@@ -565,16 +590,16 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
       for (unsigned m = row[g]; m; m &= m - 1) f(b0 + 8 * g + static_cast<std::uint32_t>(std::countr_zero(m)));
   };
   bool moved = false;
-  if (marked)
-    each_marked(mask, [&](std::uint32_t i) {
-      const S ux = b.x[i] - b.rx[i], uy = b.y[i] - b.ry[i], uz = b.z[i] - b.rz[i];
-      const S u = std::sqrt(ux * ux + uy * uy + uz * uz);
-      if (u > limit) {
-        const S keep = limit / u;  // fraction of the displacement that stays elastic
-        b.rx[i] = b.x[i] - ux * keep, b.ry[i] = b.y[i] - uy * keep, b.rz[i] = b.z[i] - uz * keep;
-        moved = true;
-      }
-    });
+  each_marked(mask, [&](std::uint32_t i) {
+    const std::array<S, 3> p = pos(i);
+    const S ux = p[0] - b.rx[i], uy = p[1] - b.ry[i], uz = p[2] - b.rz[i];
+    const S u = std::sqrt(ux * ux + uy * uy + uz * uz);
+    if (u > limit) {
+      const S keep = limit / u;  // fraction of the displacement that stays elastic
+      b.rx[i] = p[0] - ux * keep, b.ry[i] = p[1] - uy * keep, b.rz[i] = p[2] - uz * keep;
+      moved = true;
+    }
+  });
   if (moved) b.block[blk].dirty = true;
   if (!springs) return;
   // Springs: perfect plasticity, strain clamped to ±yield; both directed
@@ -593,7 +618,8 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
   };
   auto yield_spring = [&](std::uint32_t i, std::int32_t j, S& rest) {
     if (static_cast<std::uint32_t>(j) == i) return;
-    const S dx = b.x[j] - b.x[i], dy = b.y[j] - b.y[i], dz = b.z[j] - b.z[i];
+    const std::array<S, 3> pi = pos(i), pj = pos(static_cast<std::uint32_t>(j));
+    const S dx = pj[0] - pi[0], dy = pj[1] - pi[1], dz = pj[2] - pi[2];
     const S len = std::sqrt(dx * dx + dy * dy + dz * dz);
     S value = rest;
     if (len > rest * (S(1) + y)) value = len / (S(1) + y);
@@ -607,12 +633,11 @@ void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk) {
   // An unmarked entry whose mirror yields earlier in this pass gets the value
   // the exact test would have left unchanged (same length, same clamp), so
   // skipping it is still exact.
-  if (marked)
-    for (int s = 0; s < b.slots; ++s)
-      each_marked(mask + kRow * (1 + s), [&](std::uint32_t i) {
-        const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
-        yield_spring(i, b.nbr[e], b.rest_length[e]);
-      });
+  for (int s = 0; s < b.slots; ++s)
+    each_marked(mask + kRow * (1 + s), [&](std::uint32_t i) {
+      const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
+      yield_spring(i, b.nbr[e], b.rest_length[e]);
+    });
   for (std::uint32_t o = b.overflow_begin[blk]; o < b.overflow_begin[blk + 1]; ++o)
     yield_spring(b.overflow[o].i, b.overflow[o].j, b.overflow[o].rest_length);
 }
@@ -664,8 +689,16 @@ void World<S>::step_body(std::uint32_t bi) {
   // path) and forces before any kick (not velocity Verlet). Blocks holding
   // grabbed vertices step in pieces inside it (their grab springs go in
   // between forces and integration).
-  const bool fused =
-      !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::packed_path_active();
+  // Clay yields on the state the tick starts from: the unfused paths test
+  // before they integrate (velocity Verlet: before it drifts), the fused pass
+  // marks while it computes the forces and applies after it; either way after
+  // this tick's forces, which use the rest shape from before. (Linear-model
+  // clay stays unfused: its packed records hold x − r, not x.)
+  const bool clay = b.plastic;
+  const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::packed_path_active() &&
+                     !(clay && m.model == ForceModel::linear);
+  const std::size_t mask_bytes = yield_mask_bytes(b);
+  auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
@@ -675,6 +708,8 @@ void World<S>::step_body(std::uint32_t bi) {
       // woken, restored or set by hand gets its forces first (before any
       // block drifts): otherwise its first step kicks with zero (or stale)
       // acceleration and the integrator starts first order.
+      if (sub == 0 && clay)
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) plastic_flow(b, b.awake_list[q], mask_of(0));
       if (sub == 0)
         for (std::uint32_t q = 0; q < b.awake_count; ++q) {
           const std::uint32_t blk = b.awake_list[q];
@@ -732,12 +767,16 @@ void World<S>::step_body(std::uint32_t bi) {
               for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = true;
           for (std::uint32_t q = 0; q < b.awake_count; ++q) {
             const std::uint32_t blk = b.awake_list[q];
-            if (b.block[blk].grabbed)
-              pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk),
-                                              b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+            if (!b.block[blk].grabbed) continue;
+            pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk),
+                                            b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+            if (clay && sub == 0)
+              kernel::yield_candidates(fa, static_cast<S>(m.yield_strain), anchor_limit(b), true, b.begin_of(blk),
+                                       b.end_of(blk), mask_of(q));
           }
           grab_springs();
         }
+        const bool yields = clay && sub == 0;
         for (std::uint32_t q = 0; q < b.awake_count; ++q) {
           const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
           if (b.block[blk].grabbed) {
@@ -745,12 +784,18 @@ void World<S>::step_body(std::uint32_t bi) {
             kernel::pack(fa, m.model, vel, next, b0, b1);
             continue;
           }
+          const kernel::YieldArgs ya{mask_of(q), static_cast<float>(m.yield_strain), anchor_limit(b)};
           float potential = 0;
-          const kernel::BlockSums<float> sums = kernel::step_block_fused(
-              fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], next, potential);
+          const kernel::BlockSums<float> sums =
+              kernel::step_block_fused(fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1],
+                                       next, potential, yields ? &ya : nullptr);
           pe_scratch_[q] = potential;
           account(q, sums);
         }
+        // The current buffer still holds every vertex as the step found it.
+        if (yields)
+          for (std::uint32_t q = 0; q < b.awake_count; ++q)
+            plastic_apply(b, b.awake_list[q], mask_of(q), b.packed[b.packed_cur].data());
         if (grabbing)
           for (std::uint32_t t = 0; t < tool_slots_; ++t)
             for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = false;
@@ -769,6 +814,8 @@ void World<S>::step_body(std::uint32_t bi) {
                                         b.overflow_begin[blk + 1]);
       }
       grab_springs();
+      if (clay && sub == 0 && integ != Integrator::velocity_verlet)  // nothing has moved yet (Verlet: done above)
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) plastic_flow(b, b.awake_list[q], mask_of(0));
       for (std::uint32_t q = 0; q < b.awake_count; ++q) {
         const std::uint32_t blk = b.awake_list[q];
         account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
@@ -828,12 +875,6 @@ void World<S>::step_body(std::uint32_t bi) {
     const S sleep2 = static_cast<S>(settings_.sleep_speed * settings_.sleep_speed);
     for (std::uint32_t q = 0; q < b.awake_count; ++q) {
       const std::uint32_t blk = b.awake_list[q];
-      if (b.plastic) {
-        plastic_flow(b, blk);
-        // The linear model packs u = p − r: a rest shape that yielded changes it.
-        if (m.model == ForceModel::linear)
-          for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) pack_vertex(b, i, S(1) / dts);
-      }
       BlockState<S>& s = b.block[blk];
       const S v2 = static_cast<S>(std::bit_cast<float>(s.max_speed2_bits));
       const bool moving = !(v2 < sleep2);
@@ -941,7 +982,7 @@ std::uint64_t World<S>::hash() const {
 template <class S>
 std::size_t World<S>::bytes() const {
   std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + pe_scratch_.capacity() * 8 +
-                      yield_mask_.capacity() + outcode_.capacity() + outcode_stamp_.capacity() * sizeof(std::uint32_t);
+                      yield_masks_.capacity() + outcode_.capacity() + outcode_stamp_.capacity() * sizeof(std::uint32_t);
   for (const Body<S>& b : bodies_) total += b.bytes();
   return total;
 }

@@ -113,7 +113,10 @@ class World {
   void sleep(Body<S>& b, std::uint32_t blk);
   void refit(Body<S>& b, std::uint32_t blk);
   static kernel::ForceArgs<S> network_args(Body<S>& b);
-  void plastic_flow(Body<S>& b, std::uint32_t blk);
+  static S anchor_limit(const Body<S>& b);
+  static std::size_t yield_mask_bytes(const Body<S>& b);
+  void plastic_flow(Body<S>& b, std::uint32_t blk, std::uint8_t* mask);
+  void plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const S* records);
   void snapshot(Body<S>& b, std::uint32_t blk);
   void restore(Body<S>& b);
   void update_box(Body<S>& b);
@@ -128,7 +131,7 @@ class World {
   std::vector<ChangeRange> changes_;
   std::size_t change_count_ = 0;
   std::vector<double> pe_scratch_;  // per awake block, last substep's potential energy
-  std::vector<std::uint8_t> yield_mask_;  // clay: kernel::yield_candidates' bits for one block
+  std::vector<std::uint8_t> yield_masks_;  // clay: yield marks per awake block (yield_mask_bytes each)
   // Narrow phase: per vertex, which faces of the sweep's tool box it lies beyond;
   // valid for a block whose stamp equals the epoch (one epoch per sweep).
   std::vector<std::uint8_t> outcode_;
