@@ -584,11 +584,16 @@ void World<S>::plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* 
     return {b.x[i], b.y[i], b.z[i]};
   };
   constexpr std::uint32_t kRow = kBlock / 8;
-  // Calls f(i) for every marked vertex of a row, in ascending order.
+  // Calls f(i) for every marked vertex of a row, in ascending order (bit k of
+  // byte g is vertex 8g + k: 64 of them per little-endian word).
   auto each_marked = [&](const std::uint8_t* row, auto&& f) {
-    for (std::uint32_t g = 0; g < kRow; ++g)
-      for (unsigned m = row[g]; m; m &= m - 1) f(b0 + 8 * g + static_cast<std::uint32_t>(std::countr_zero(m)));
+    for (std::uint32_t w = 0; w < kRow / 8; ++w) {
+      std::uint64_t m;
+      std::memcpy(&m, row + 8 * w, sizeof m);
+      for (; m; m &= m - 1) f(b0 + 64 * w + static_cast<std::uint32_t>(std::countr_zero(m)));
+    }
   };
+  static_assert(std::endian::native == std::endian::little && kRow % 8 == 0);
   bool moved = false;
   each_marked(mask, [&](std::uint32_t i) {
     const std::array<S, 3> p = pos(i);
