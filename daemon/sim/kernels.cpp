@@ -400,8 +400,8 @@ template <ForceModel M, bool Yield = false>
 __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
     const float* __restrict P, const std::int32_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
     int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
-    __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8 = {},
-    __m256 down8 = {}, std::uint8_t* marks = nullptr) {
+    __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8, __m256 down8,
+    std::uint8_t* marks) {
   for (int s = 0; s < slots; ++s) {
     const std::int32_t* nb = nb0 + s * stride;
     const float* p[8];

@@ -755,6 +755,10 @@ void World<S>::step_body(std::uint32_t bi) {
         tr.contacts = std::max(tr.contacts, tc.grab_count);
       }
     };
+    auto mark_grabbed = [&](bool on) {
+      for (std::uint32_t t = 0; t < tool_slots_; ++t)
+        for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = on;
+    };
     if (fused) {
       // One pass per block while its data is in L1: forces (neighbours from the
       // current packed buffer), integrate, then pack into the other buffer.
@@ -767,9 +771,7 @@ void World<S>::step_body(std::uint32_t bi) {
           // packed buffer either way), the grab springs, and below integrate
           // and pack. The same operations in the same order as the unfused
           // path: the same bits.
-          for (std::uint32_t t = 0; t < tool_slots_; ++t)
-            if (b.tools[t].grabbing)
-              for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = true;
+          mark_grabbed(true);
           for (std::uint32_t q = 0; q < b.awake_count; ++q) {
             const std::uint32_t blk = b.awake_list[q];
             if (!b.block[blk].grabbed) continue;
@@ -801,9 +803,7 @@ void World<S>::step_body(std::uint32_t bi) {
         if (yields)
           for (std::uint32_t q = 0; q < b.awake_count; ++q)
             plastic_apply(b, b.awake_list[q], mask_of(q), b.packed[b.packed_cur].data());
-        if (grabbing)
-          for (std::uint32_t t = 0; t < tool_slots_; ++t)
-            for (std::uint32_t g = 0; g < b.tools[t].grab_count; ++g) b.block[b.tools[t].grabs[g].i / kBlock].grabbed = false;
+        if (grabbing) mark_grabbed(false);
         b.packed_cur ^= 1;
       }
     } else {
