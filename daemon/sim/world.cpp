@@ -703,7 +703,7 @@ void World<S>::step_body(std::uint32_t bi) {
   const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::packed_path_active() &&
                      !(clay && m.model == ForceModel::linear);
   const std::size_t mask_bytes = yield_mask_bytes(b);
-  auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };
+  auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };  // clay bodies only
   for (int sub = 0; sub < nsub; ++sub) {
     const double alpha0 = double(sub) / nsub, alpha1 = double(sub + 1) / nsub;
     const bool last = sub + 1 == nsub;
@@ -791,7 +791,8 @@ void World<S>::step_body(std::uint32_t bi) {
             kernel::pack(fa, m.model, vel, next, b0, b1);
             continue;
           }
-          const kernel::YieldArgs ya{mask_of(q), static_cast<float>(m.yield_strain), anchor_limit(b)};
+          kernel::YieldArgs ya{};
+          if (yields) ya = {mask_of(q), static_cast<float>(m.yield_strain), anchor_limit(b)};
           float potential = 0;
           const kernel::BlockSums<float> sums =
               kernel::step_block_fused(fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1],
