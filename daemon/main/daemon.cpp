@@ -8,6 +8,7 @@
 #include <bit>
 #include <cerrno>
 #include <chrono>
+#include <thread>
 #include <cmath>
 #include <csignal>
 #include <cstring>
@@ -284,8 +285,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     socket_path_ = listen_->path();
     server_->listen(listen_->release());
 
-    // The sim thread.
+    // The sim thread. READY promises a ticking loop (docs/daemon.md): wait
+    // for its first tick, briefly (a slow start is reported, not fatal).
     start_sim(0, false);
+    const auto first_tick_by = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (sim_->ticks() == 0 && std::chrono::steady_clock::now() < first_tick_by)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    if (sim_->ticks() == 0) log::warning("the sim thread has not ticked 5 s after its start");
     // Once per process (the kernel's preemption model cannot change while we
     // run), not at every scene swap.
     if (cfg_.realtime)
