@@ -777,9 +777,9 @@ void World<S>::step_body(std::uint32_t bi) {
             if (!b.block[blk].grabbed) continue;
             pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk),
                                             b.overflow_begin[blk], b.overflow_begin[blk + 1]);
-            if (clay && sub == 0)
-              kernel::yield_candidates(fa, static_cast<S>(m.yield_strain), anchor_limit(b), true, b.begin_of(blk),
-                                       b.end_of(blk), mask_of(q));
+            if (clay && sub == 0)  // before it moves, as the fused blocks mark theirs
+              kernel::yield_candidates(fa, static_cast<S>(m.yield_strain), anchor_limit(b),
+                                       m.model == ForceModel::spring, b.begin_of(blk), b.end_of(blk), mask_of(q));
           }
           grab_springs();
         }

@@ -2,6 +2,8 @@
 // only; nothing here passes or fails on speed.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
+
 #include "sim/baseline.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
@@ -78,6 +80,32 @@ void BM_StepSculpting(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_StepSculpting)->Arg(7)->Unit(benchmark::kMicrosecond);
+
+// Clay being sculpted, sleeping on: a tool presses in, then grabs and pulls
+// (the clay yields and the grabbed blocks of the fused pass), over and over.
+// range(1) as in BM_StepAllAwake: 0 auto, 1 portable kernels, 2 the fused pass in pieces.
+void BM_StepClaySculpting(benchmark::State& state) {
+  World<float> w(SimSettings{}, 1);
+  Material clay;
+  clay.plastic = true;
+  w.add_body(make_icosphere(0.1f, static_cast<int>(state.range(0))), clay);
+  kernel::force_portable(state.range(1) == 1);
+  kernel::force_block_pieces(state.range(1) == 2);
+  long tick = 0;
+  for (auto _ : state) {
+    const long phase = tick++ % 400;  // 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out
+    Tool t;
+    t.radius = 0.02;
+    const double depth = phase < 200 ? 0.01 * phase / 200.0 : 0.01 - 0.02 * (phase - 200) / 200.0;
+    t.position = {0.01 * std::sin(tick * 0.01), 0.115 - depth, 0.0};
+    t.grab = phase >= 200;
+    w.step({&t, 1});
+  }
+  kernel::force_portable(false);
+  kernel::force_block_pieces(false);
+  state.SetLabel(state.range(1) == 1 ? "portable" : state.range(1) == 2 ? "pieces" : "auto");
+}
+BENCHMARK(BM_StepClaySculpting)->Args({6, 0})->Args({6, 2})->Args({6, 1})->Unit(benchmark::kMicrosecond);
 
 // Nothing touches the scene: everything sleeps.
 void BM_StepIdle(benchmark::State& state) {
