@@ -44,6 +44,8 @@ void bump(std::atomic<std::uint64_t>& a) { a.store(a.load(std::memory_order_rela
 
 }  // namespace
 
+std::int64_t max_wake_early_ns(double rate_hz) { return std::llround(1e9 / rate_hz) / 2; }
+
 SimThread::SimThread(sim::World<float>& world, TickStages& stages, std::size_t tool_count,
                      const SimThreadOptions& options)
     : world_(world), stages_(stages), tools_(tool_count), options_(options) {
@@ -52,10 +54,11 @@ SimThread::SimThread(sim::World<float>& world, TickStages& stages, std::size_t t
   if (options.realtime_priority < 1 || options.realtime_priority > 99)
     throw std::invalid_argument("realtime priority must be 1..99");
   period_ns_ = std::llround(1e9 / options.rate_hz);
-  if (options.wake_early_ns < 0 || options.wake_early_ns > period_ns_ / 2)
+  if (options.wake_early_ns < 0 || options.wake_early_ns > max_wake_early_ns(options.rate_hz))
     throw std::invalid_argument("wake early must be between 0 and half the period (" +
-                                std::to_string(period_ns_ / 2000) + " us), got " +
-                                std::to_string(options.wake_early_ns / 1000) + " us");
+                                std::to_string(max_wake_early_ns(options.rate_hz)) + " ns), got " +
+                                std::to_string(options.wake_early_ns) + " ns");
+  spin_.store(!options.wake_early_needs_fifo, std::memory_order_relaxed);
   for (auto& t : tools_) t.active = false;
   world_.set_stage_clock([] { return static_cast<std::uint64_t>(monotonic_ns()); });
   std::uint64_t total = 0;
@@ -82,8 +85,10 @@ RealtimeResult SimThread::start() {
     sched_param sp{};
     sp.sched_priority = options_.realtime_priority;
     const int err = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
-    if (err == 0) rt.fifo = true;
-    else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
+    if (err == 0) {
+      rt.fifo = true;
+      spin_.store(true, std::memory_order_relaxed);
+    } else rt.warnings.push_back(std::string("--realtime: SCHED_FIFO refused (") + std::strerror(err) +
                                "): running at normal priority; grant CAP_SYS_NICE or an RLIMIT_RTPRIO");
   }
   return rt;
@@ -118,11 +123,11 @@ void SimThread::run() {
   std::int64_t deadline = monotonic_ns() + period;
   std::uint64_t tick = world_.tick() + options_.first_tick;
   auto& stage = stats_.stage;
-  const std::int64_t early = options_.wake_early_ns;
   while (!stop_.load(std::memory_order_acquire)) {
     // Paused, nothing needs the deadline kept to the microsecond: no spin.
     const bool was_paused = stats_.paused.load(std::memory_order_relaxed);
-    const timespec ts = to_timespec(deadline - (was_paused ? 0 : early));
+    const bool spin = !was_paused && spin_.load(std::memory_order_relaxed);
+    const timespec ts = to_timespec(deadline - (spin ? options_.wake_early_ns : 0));
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
     std::int64_t t0 = monotonic_ns();

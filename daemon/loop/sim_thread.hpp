@@ -63,8 +63,11 @@ struct SimThreadOptions {
   // Sleep until this long before each deadline, then spin to it: the thread
   // then holds its CPU when the deadline comes, so a wake-up delayed by the
   // host or by another task's system call costs this much less (at this much
-  // CPU per period). 0..period/2.
+  // CPU per period). 0..max_wake_early_ns(rate_hz).
   std::int64_t wake_early_ns = 0;
+  // Spin only once SCHED_FIFO is granted: at normal priority the thread can
+  // lose its CPU mid-spin anyway, so the spin would cost CPU for little.
+  bool wake_early_needs_fifo = false;
   // The tick number of the world's first tick here (a scene swapped in mid-run
   // continues the old timeline: queued inputs and viewers' sequences go on).
   // The stats' tick count starts there too.
@@ -72,6 +75,9 @@ struct SimThreadOptions {
 };
 
 // Outcome of asking for real-time scheduling: what worked and, if not, why.
+// The longest wake_early_ns a rate allows: half its period.
+std::int64_t max_wake_early_ns(double rate_hz);
+
 struct RealtimeResult {
   bool fifo = false;
   bool locked = false;
@@ -115,6 +121,7 @@ class SimThread {
   std::vector<sim::Tool> tools_;
   SimThreadOptions options_;
   std::int64_t period_ns_;
+  std::atomic<bool> spin_{false};  // wake early and spin (see SimThreadOptions::wake_early_needs_fifo)
   LoopStats stats_;
   concurrency::SpscRing<std::uint8_t> commands_{64};  // 1: pause, 0: resume
   std::atomic<bool> stop_{false};

@@ -372,8 +372,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     // A SCHED_FIFO thread spinning to its deadline holds its CPU when the
     // deadline comes; without --realtime, spinning buys little. At most half
     // the period (a high --rate shrinks it below the configured value).
+    // The default spins only on SCHED_FIFO; a configured value always does.
     const double early_us = cfg_.wake_early_us.value_or(cfg_.realtime ? kRealtimeWakeEarlyUs : 0.0);
-    so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), std::llround(0.5e9 / rate_));
+    so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), loop::max_wake_early_ns(rate_));
+    so.wake_early_needs_fifo = !cfg_.wake_early_us.has_value();
     so.first_tick = first_tick;
     if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
     sim_ = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
