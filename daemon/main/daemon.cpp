@@ -8,7 +8,6 @@
 #include <bit>
 #include <cerrno>
 #include <chrono>
-#include <thread>
 #include <cmath>
 #include <csignal>
 #include <cstring>
@@ -285,13 +284,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     socket_path_ = listen_->path();
     server_->listen(listen_->release());
 
-    // The sim thread. READY promises a ticking loop (docs/daemon.md): wait
-    // for its first tick, briefly (a slow start is reported, not fatal).
+    // The sim thread. READY waits for its first tick (housekeep()).
     start_sim(0, false);
-    const auto first_tick_by = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    while (sim_->ticks() == 0 && std::chrono::steady_clock::now() < first_tick_by)
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    if (sim_->ticks() == 0) log::warning("the sim thread has not ticked 5 s after its start");
     // Once per process (the kernel's preemption model cannot change while we
     // run), not at every scene swap.
     if (cfg_.realtime)
@@ -304,6 +298,14 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     watchdog_ = notify::watchdog_interval();
     tasks_->add(housekeeping());
     started_ = std::chrono::steady_clock::now();
+  }
+
+  // READY promises a ticking loop (docs/daemon.md): sent at the first
+  // housekeeping after the sim thread's first wake. One that never ticks
+  // fails the start through systemd's TimeoutStartSec.
+  void announce_ready_once() {
+    if (ready_sent_ || sim_->stats().heartbeats.load(std::memory_order_acquire) == 0) return;
+    ready_sent_ = true;
     notify::ready(status_line());
     log::notice("sculptd ready: {} Hz, input {}, socket {}{}", rate_, to_string(cfg_.input), socket_path_,
                 listen_->activated() ? " (socket activation)" : "");
@@ -566,6 +568,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
   void housekeep() {
     const auto now = std::chrono::steady_clock::now();
+    announce_ready_once();
     if (sim_->finished()) {
       log::info("duration reached: {} ticks", sim_->ticks());
       request_stop(0);
@@ -717,6 +720,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::chrono::steady_clock::time_point next_watchdog_{}, next_status_{}, started_{};
   std::uint64_t watchdog_ticks_ = std::numeric_limits<std::uint64_t>::max();
   bool stalled_logged_ = false;
+  bool ready_sent_ = false;  // READY and "sculptd ready" go out once, after the first tick
   bool at_rest_ = true;
   bool stopping_ = false;
   kj::Own<kj::TaskSet> tasks_;  // last: its promises use everything above
