@@ -479,6 +479,7 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
   if (now - s.last_stats_ns >= options_.stats_every_ns) {
     DaemonStatus d = status_now();
     d.jitter.clear();  // the overlay needs the quantiles, not the histogram
+    d.stats.recent_overruns.clear();  // nor the overrun records (status has them)
     server::fill_stats(f.initStats(), d);
     f.setHasStats(true);
     s.last_stats_ns = now;
