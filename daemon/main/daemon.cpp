@@ -622,8 +622,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       input::MappingConfig mapping = input::parse_mapping(next.mapping_table, next.file.empty() ? "config" : next.file);
       // What needs a restart is reported, not applied: the sculpt is kept.
       if (next.scene != cfg_.scene || next.rate_hz != cfg_.rate_hz || to_string(next.input) != to_string(cfg_.input) ||
-          next.realtime != cfg_.realtime || next.socket != cfg_.socket)
-        log::notice("SIGHUP: scene, rate, input, socket and realtime changes take effect at the next start");
+          next.realtime != cfg_.realtime || next.realtime_priority != cfg_.realtime_priority ||
+          next.wake_early_us != cfg_.wake_early_us || next.socket != cfg_.socket)
+        log::notice("SIGHUP: scene, rate, input, socket, realtime, realtime_priority and wake_early_us changes take "
+                    "effect at the next start");
       mapping_ = std::move(mapping);
       cfg_.log_level = next.log_level;
       log::set_level(next.log_level);
