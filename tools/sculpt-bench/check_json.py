@@ -47,8 +47,16 @@ for args in cases:
             assert k in d, f"{args}: missing {k}"
     assert d["vertices"] > 0 and d["springs"] > 0 and d["steps"] == 5
 
-bad = subprocess.run([bench, "throughput", "--mesh", "builtin:nothing"], capture_output=True, text=True)
-assert bad.returncode != 0 and "builtin:nothing" in bad.stderr, "a bad --mesh must fail with a message naming it"
+# --records picks the layout, and says which it asked for.
+for records, kernel in [("off", "portable")]:
+    d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", records, "--impl", "fast",
+                   "--steps", "5", "--repeats", "1", "--json"]))[0]
+    assert d["records"] == records and d["kernel"] == kernel, d
+
+for args, word in [(["--mesh", "builtin:nothing"], "builtin:nothing"), (["--model", "foam"], "--model"),
+                   (["--steps", "0"], "--steps"), (["--records", "on", "--precision", "double"], "--records")]:
+    bad = subprocess.run([bench, "throughput", *args], capture_output=True, text=True)
+    assert bad.returncode != 0 and word in bad.stderr, f"throughput {args}: must fail naming {word}: {bad.stderr}"
 
 # --- accuracy (issue 8): the documented command works alone, one line per case ---
 rows = lines(run(["accuracy", "--problem", "chain", "--integrator", "verlet", "--json", "--quiet"]))

@@ -2,7 +2,8 @@
 //
 //   sculpt-bench throughput [--mesh builtin:icosphere:7|builtin:torus:R:r:rings:sides|builtin:box:cells|FILE]
 //                           [--model spring|linear] [--precision float|double] [--tool none|sphere]
-//                           [--steps N] [--repeats R] [--impl both|fast|baseline] [--json]
+//                           [--steps N] [--repeats R] [--impl both|fast|baseline] [--records auto|on|off]
+//                           [--json]
 //
 // The fast path and the straightforward baseline run interleaved in one
 // process (the machine is shared and noisy: compare them side by side), each
@@ -215,6 +216,9 @@ long child_peak_rss(const Options& o) {
 }
 
 int throughput(const Options& o) {
+  // Only float bodies have packed records: asking double for a layout would measure the other one silently.
+  if (o.records != "auto" && o.precision == "double")
+    throw std::invalid_argument("--records " + o.records + " needs --precision float (double has no packed records)");
   const long fast_only_rss = o.impl == "baseline" ? -1 : child_peak_rss(o);
   const sim::TriangleMesh mesh = load_mesh_spec(o.mesh);
   sim::Material material;
@@ -236,6 +240,7 @@ int throughput(const Options& o) {
                         {"model", o.model},
                         {"precision", o.precision},
                         {"tool", o.tool},
+                        {"records", o.records},
                         {"steps", o.steps},
                         {"repeats", o.repeats},
                         {"substeps", fast["substeps"]}};
@@ -284,8 +289,8 @@ Command add_throughput(CLI::App& app) {
   tp->add_option("--model", o.model, "spring | linear")->check(CLI::IsMember({"spring", "linear"}));
   tp->add_option("--precision", o.precision, "float | double")->check(CLI::IsMember({"float", "double"}));
   tp->add_option("--tool", o.tool, "none | sphere")->check(CLI::IsMember({"none", "sphere"}));
-  tp->add_option("--steps", o.steps, "timed ticks per repeat")->check(CLI::PositiveNumber);
-  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)")->check(CLI::PositiveNumber);
+  tp->add_option("--steps", o.steps, "timed ticks per repeat")->check(CLI::Range(1, 1000000));
+  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)")->check(CLI::Range(1, 10000));
   tp->add_option("--impl", o.impl, "both | fast | baseline")->check(CLI::IsMember({"both", "fast", "baseline"}));
   tp->add_option("--records", o.records, "packed neighbour records (AVX2 path): auto (by mesh size) | on | off")
       ->check(CLI::IsMember({"auto", "on", "off"}));
