@@ -39,7 +39,24 @@ std::string boot_param(std::string_view cmdline) {
   return "";
 }
 
-std::string read_all(const char* path) {
+// The build's default model of a dynamic kernel: the one "CONFIG_PREEMPT..=y" of its config.
+std::string config_default(std::string_view config) {
+  auto set = [&](std::string_view key) {
+    const std::string line = "CONFIG_PREEMPT" + std::string(key) + "=y";
+    for (std::size_t at = config.find(line); at != std::string_view::npos; at = config.find(line, at + 1)) {
+      const std::size_t end = at + line.size();
+      if ((at == 0 || config[at - 1] == '\n') && (end == config.size() || config[end] == '\n')) return true;
+    }
+    return false;
+  };
+  if (set("_NONE")) return "none";
+  if (set("_VOLUNTARY")) return "voluntary";
+  if (set("_LAZY")) return "lazy";
+  if (set("")) return "full";
+  return "";
+}
+
+std::string read_all(const std::string& path) {
   std::ifstream f(path);
   std::stringstream s;
   s << f.rdbuf();
@@ -48,11 +65,13 @@ std::string read_all(const char* path) {
 
 }  // namespace
 
-std::string preemption_model(std::string_view version, std::string_view debugfs, std::string_view cmdline) {
+std::string preemption_model(std::string_view version, std::string_view debugfs, std::string_view cmdline,
+                             std::string_view kernel_config) {
   if (has_word(version, "PREEMPT_RT")) return "rt";
   if (has_word(version, "PREEMPT_DYNAMIC")) {
     if (std::string m = bracketed(debugfs); !m.empty()) return m;
-    return boot_param(cmdline);  // "" when the boot did not choose: the build's default, unknown here
+    if (std::string m = boot_param(cmdline); !m.empty()) return m;
+    return config_default(kernel_config);  // "" without a config to read
   }
   if (has_word(version, "PREEMPT")) return "full";
   return "none";  // a build without preemption: none or voluntary, both wait the same way for RT wake-ups
@@ -60,7 +79,8 @@ std::string preemption_model(std::string_view version, std::string_view debugfs,
 
 std::optional<std::string> preemption_warning(std::string_view model) {
   if (model == "rt" || model == "full" || model == "lazy") return std::nullopt;
-  const std::string what = model.empty() ? std::string("cannot be read (a dynamic kernel; mount debugfs to tell)")
+  const std::string what = model.empty() ? std::string("cannot be read (a dynamic kernel: its mode is in "
+                                                     "/sys/kernel/debug/sched/preempt, readable by root)")
                                          : "is \"" + std::string(model) + "\"";
   return "--realtime: the kernel's preemption model " + what +
          ": a woken SCHED_FIFO thread waits until the task on its CPU leaves the kernel, which made most "
@@ -70,8 +90,10 @@ std::optional<std::string> preemption_warning(std::string_view model) {
 
 std::string current_preemption_model() {
   utsname u{};
-  const std::string version = uname(&u) == 0 ? std::string(u.version) : std::string();
-  return preemption_model(version, read_all("/sys/kernel/debug/sched/preempt"), read_all("/proc/cmdline"));
+  const bool named = uname(&u) == 0;
+  const std::string version = named ? std::string(u.version) : std::string();
+  const std::string config = named ? read_all(std::string("/boot/config-") + u.release) : std::string();
+  return preemption_model(version, read_all("/sys/kernel/debug/sched/preempt"), read_all("/proc/cmdline"), config);
 }
 
 }  // namespace sculpt::loop

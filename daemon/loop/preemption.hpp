@@ -15,17 +15,19 @@ namespace sculpt::loop {
 // The preemption model from what the kernel tells: `uname -v` (its build:
 // "PREEMPT_RT", "PREEMPT_DYNAMIC", "PREEMPT" or none of them), the current
 // mode of a dynamic kernel from /sys/kernel/debug/sched/preempt ("none
-// voluntary (full) lazy"; empty when unreadable) and else the boot's
-// `preempt=` on /proc/cmdline. Returns "rt", "full", "lazy", "voluntary",
-// "none", or "" when a dynamic kernel's mode cannot be read.
+// voluntary (full) lazy"; empty when unreadable: it needs root), else the
+// boot's `preempt=` on /proc/cmdline, else the build's default mode from its
+// config (/boot/config-<release>: CONFIG_PREEMPT_NONE/_VOLUNTARY/=y/_LAZY).
+// Returns "rt", "full", "lazy", "voluntary", "none", or "" when a dynamic
+// kernel's mode cannot be read.
 std::string preemption_model(std::string_view uname_version, std::string_view debugfs_preempt,
-                             std::string_view cmdline);
+                             std::string_view cmdline, std::string_view kernel_config = {});
 
 // A warning for --realtime when the model delays real-time wake-ups
 // (none, voluntary, or unknown); nothing for rt, full and lazy.
 std::optional<std::string> preemption_warning(std::string_view model);
 
-// This machine's model (reads uname, debugfs if mounted and readable, /proc/cmdline).
+// This machine's model (reads uname, debugfs if mounted and readable, /proc/cmdline, /boot/config-*).
 std::string current_preemption_model();
 
 }  // namespace sculpt::loop

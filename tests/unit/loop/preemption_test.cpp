@@ -18,6 +18,14 @@ TEST(Preemption, ReadsTheBuildThenTheDynamicModeThenTheBootParameter) {
   EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "console=ttyS0 preempt=voluntary quiet\n"), "voluntary");
   EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "console=ttyS0 quiet\n"), "");
   EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "xpreempt=full"), "");
+  // ...else the build's default from its config (debugfs needs root).
+  const char* config = "CONFIG_PREEMPT_BUILD=y\n# CONFIG_PREEMPT_NONE is not set\nCONFIG_PREEMPT_VOLUNTARY=y\n"
+                       "# CONFIG_PREEMPT is not set\nCONFIG_PREEMPT_COUNT=y\nCONFIG_PREEMPT_DYNAMIC=y\n";
+  EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "quiet\n", config), "voluntary");
+  EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "preempt=full\n", config), "full");
+  EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "", "CONFIG_PREEMPT_DYNAMIC=y\nCONFIG_PREEMPT=y\n"),
+            "full");
+  EXPECT_EQ(preemption_model("#1 SMP PREEMPT_DYNAMIC @0", "", "", "CONFIG_PREEMPT_DYNAMIC=y\n"), "");
   // "PREEMPT" inside another word is not the flag.
   EXPECT_EQ(preemption_model("#1 SMP NOPREEMPTION", "", ""), "none");
 }
