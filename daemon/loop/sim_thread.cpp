@@ -40,7 +40,6 @@ timespec to_timespec(std::int64_t ns) {
 }
 
 void store(std::atomic<std::uint64_t>& a, std::uint64_t v) { a.store(v, std::memory_order_relaxed); }
-void bump(std::atomic<std::uint64_t>& a) { a.store(a.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); }
 
 }  // namespace
 
@@ -170,10 +169,8 @@ void SimThread::run() {
 
     TickCounters counters = take_counters();
     counters.work_cpu_ns = cpu3 > cpu0 ? cpu3 - cpu0 : 0;
-    if (is_overrun(timing, period)) {
-      bump(stats_.overruns);
-      stats_.overrun_log.record(make_overrun_record(tick, cpu, timing, counters));
-    }
+    const bool overran = is_overrun(timing, period);  // counted by the log: overrun_log.total()
+    if (overran) stats_.overrun_log.record(make_overrun_record(tick, cpu, timing, counters));
     ++tick;
     stats_.ticks.store(stats_.ticks.load(std::memory_order_relaxed) + 1, std::memory_order_release);
 
@@ -182,7 +179,7 @@ void SimThread::run() {
     // ahead, dropping the missed periods. A tick started at once would begin
     // up to a period late and overrun in turn (one stall counted twice), and a
     // burst of catch-up ticks would shorten the periods the devices feel.
-    if (t3 > deadline) {
+    if (overran) {
       const std::int64_t missed = (t3 - deadline) / period + 1;
       deadline += missed * period;
       stats_.skipped_periods.store(stats_.skipped_periods.load(std::memory_order_relaxed) +

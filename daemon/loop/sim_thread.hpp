@@ -38,7 +38,6 @@ struct LoopStats {
   std::atomic<std::uint64_t> ticks{0};             // simulated ticks (a paused loop adds none)
   std::atomic<std::uint64_t> heartbeats{0};        // loop periods run, paused or not (the watchdog's)
   std::atomic<bool> paused{false};
-  std::atomic<std::uint64_t> overruns{0};         // ticks whose work ended past the next deadline
   std::atomic<std::uint64_t> skipped_periods{0};  // whole periods dropped to get back on schedule
   std::atomic<std::uint64_t> vertices_total{0};
   std::atomic<std::uint64_t> vertices_awake{0};

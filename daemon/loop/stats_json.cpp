@@ -10,7 +10,7 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   StatsSnapshot s;
   s.rate_hz = rate_hz;
   s.ticks = stats.ticks.load(std::memory_order_acquire);
-  s.overruns = stats.overruns.load(std::memory_order_relaxed);
+  s.overruns = stats.overrun_log.total();
   s.jitter_us = percentiles_us(stats.jitter);
   for (int i = 0; i < static_cast<int>(Stage::count); ++i) s.stage_us[i] = percentiles_us(stats.stage[i]);
   s.vertices_total = stats.vertices_total.load(std::memory_order_relaxed);

@@ -609,7 +609,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
   std::string status_line() const {
     return fmt::format("{} ticks, {} overruns, {} devices, {} FF uploads", sim_ ? sim_->ticks() : 0,
-                       sim_ ? sim_->stats().overruns.load() : 0, device_count(),
+                       sim_ ? sim_->stats().overrun_log.total() : 0, device_count(),
                        haptics_ ? haptics_->stats().ff.uploads.load() : 0);
   }
 
