@@ -54,18 +54,51 @@ constexpr std::uint32_t kPackedMaxVertices = 65536;
 template <class S>
 std::size_t Body<S>::bytes() const {
   std::size_t b = sizeof(*this);
-  for (const auto* buf : {&x, &y, &z, &wx, &wy, &wz, &rx, &ry, &rz, &ax, &ay, &az, &sx, &sy, &sz, &srx, &sry, &srz,
-                          &slen, &rest_length, &packed[0], &packed[1]})
+  for (const auto* buf : {&x, &y, &z, &wx, &wy, &wz, &rx, &ry, &rz, &ax, &ay, &az, &srx, &sry, &srz, &slen, &rest_length,
+                          &packed[0], &packed[1]})
     b += buf->bytes();
+  b += sx.bytes() + sy.bytes() + sz.bytes() + snapshot_grid.capacity() * sizeof(SnapshotGrid<S>);
   b += nbr.bytes();
   b += overflow.capacity() * sizeof(overflow[0]) + overflow_begin.capacity() * 4;
   b += (to_original.capacity() + to_internal.capacity()) * 4;
-  b += triangles.capacity() * sizeof(Triangle) + triangle_begin.capacity() * 4;
+  b += triangles.capacity() * sizeof(BlockTriangle) + triangle_begin.capacity() * 4;
+  b += far_triangles.capacity() * sizeof(Triangle) + far_triangle_begin.capacity() * 4;
   b += pinned.capacity() * sizeof(Pinned<S>) + pinned_begin.capacity() * 4;
   b += (block_neighbour_begin.capacity() + block_neighbours.capacity() + awake_list.capacity()) * 4;
   b += block.capacity() * sizeof(BlockState<S>);
   for (const auto& t : tools) b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
   return b;
+}
+
+template <class S>
+void Body<S>::save_positions(std::uint32_t blk) {
+  const std::uint32_t b0 = begin_of(blk), b1 = end_of(blk);
+  const S* src[3] = {x.data(), y.data(), z.data()};
+  std::uint16_t* dst[3] = {sx.data(), sy.data(), sz.data()};
+  for (int a = 0; a < 3; ++a)
+    for (std::uint32_t i = b0; i < b1; ++i)
+      if (!std::isfinite(src[a][i])) return;
+  SnapshotGrid<S> g;
+  for (int a = 0; a < 3; ++a) {
+    S lo = src[a][b0], hi = lo;
+    for (std::uint32_t i = b0; i < b1; ++i) lo = std::min(lo, src[a][i]), hi = std::max(hi, src[a][i]);
+    g.lo[a] = lo, g.step[a] = (hi - lo) / S(65535);
+    if (!std::isfinite(g.step[a])) return;  // a box wider than the type's range
+  }
+  // Round to nearest by truncating q + ½ (q ≥ 0): a conversion the compiler
+  // vectorizes, where nearbyint is a library call on baseline x86-64.
+  for (int a = 0; a < 3; ++a) {
+    const S to_grid = g.step[a] > S(0) ? S(1) / g.step[a] : S(0), lo = g.lo[a];
+    for (std::uint32_t i = b0; i < b1; ++i)
+      dst[a][i] = static_cast<std::uint16_t>(std::min(S(65535), (src[a][i] - lo) * to_grid + S(0.5)));
+  }
+  snapshot_grid[blk] = g;
+}
+
+template <class S>
+std::array<S, 3> Body<S>::saved_position(std::uint32_t i) const {
+  const SnapshotGrid<S>& g = snapshot_grid[i / kBlock];
+  return {g.lo[0] + S(sx[i]) * g.step[0], g.lo[1] + S(sy[i]) * g.step[1], g.lo[2] + S(sz[i]) * g.step[2]};
 }
 
 template <class S>
@@ -121,16 +154,17 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   // --- state arrays ----------------------------------------------------------
-  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz, &b.ax, &b.ay, &b.az, &b.sx, &b.sy,
-                    &b.sz})
-    buf->resize(n);
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz, &b.ax, &b.ay, &b.az}) buf->resize(n);
+  for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n);
+  b.snapshot_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
     const Vec3f& p = mesh.positions[b.to_original[i]];
-    b.x[i] = b.rx[i] = b.sx[i] = static_cast<S>(p[0]);
-    b.y[i] = b.ry[i] = b.sy[i] = static_cast<S>(p[1]);
-    b.z[i] = b.rz[i] = b.sz[i] = static_cast<S>(p[2]);
+    b.x[i] = b.rx[i] = static_cast<S>(p[0]);
+    b.y[i] = b.ry[i] = static_cast<S>(p[1]);
+    b.z[i] = b.rz[i] = static_cast<S>(p[2]);
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
   }
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);
 
   // --- springs: ELL + overflow ------------------------------------------------
   // Adjacency as a temporary CSR (a vector per vertex would double the peak
@@ -200,15 +234,32 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   std::partial_sum(b.block_neighbour_begin.begin(), b.block_neighbour_begin.end(), b.block_neighbour_begin.begin());
 
   // --- triangles, owned by the block of their lowest vertex -------------------
-  b.triangles.reserve(mesh.triangles.size());
-  for (const Triangle& t : mesh.triangles)
-    b.triangles.push_back({b.to_internal[t[0]], b.to_internal[t[1]], b.to_internal[t[2]]});
-  auto owner = [](const Triangle& t) { return std::min({t[0], t[1], t[2]}) / kBlock; };
-  std::stable_sort(b.triangles.begin(), b.triangles.end(),
-                   [&](const Triangle& p, const Triangle& q) { return owner(p) < owner(q); });
-  b.triangle_begin.assign(b.blocks + 1, 0);
-  for (const Triangle& t : b.triangles) ++b.triangle_begin[owner(t) + 1];
-  std::partial_sum(b.triangle_begin.begin(), b.triangle_begin.end(), b.triangle_begin.begin());
+  {
+    std::vector<Triangle> all;
+    all.reserve(mesh.triangles.size());
+    for (const Triangle& t : mesh.triangles) all.push_back({b.to_internal[t[0]], b.to_internal[t[1]], b.to_internal[t[2]]});
+    auto owner = [](const Triangle& t) { return std::min({t[0], t[1], t[2]}) / kBlock; };
+    std::stable_sort(all.begin(), all.end(), [&](const Triangle& p, const Triangle& q) { return owner(p) < owner(q); });
+    auto fits = [&](const Triangle& t) {
+      const std::uint32_t base = owner(t) * kBlock;
+      return std::max({t[0], t[1], t[2]}) - base <= std::numeric_limits<std::uint16_t>::max();
+    };
+    b.triangle_begin.assign(b.blocks + 1, 0);
+    b.far_triangle_begin.assign(b.blocks + 1, 0);
+    for (const Triangle& t : all) ++(fits(t) ? b.triangle_begin : b.far_triangle_begin)[owner(t) + 1];
+    std::partial_sum(b.triangle_begin.begin(), b.triangle_begin.end(), b.triangle_begin.begin());
+    std::partial_sum(b.far_triangle_begin.begin(), b.far_triangle_begin.end(), b.far_triangle_begin.begin());
+    b.triangles.reserve(b.triangle_begin.back());
+    b.far_triangles.reserve(b.far_triangle_begin.back());
+    for (const Triangle& t : all) {
+      const std::uint32_t base = owner(t) * kBlock;
+      if (fits(t))
+        b.triangles.push_back({{static_cast<std::uint16_t>(t[0] - base), static_cast<std::uint16_t>(t[1] - base),
+                                static_cast<std::uint16_t>(t[2] - base)}});
+      else
+        b.far_triangles.push_back(t);
+    }
+  }
 
   // --- blocks -----------------------------------------------------------------
   b.block.resize(b.blocks);
@@ -222,9 +273,9 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
       s.hi = {std::max(s.hi[0], b.x[i]), std::max(s.hi[1], b.y[i]), std::max(s.hi[2], b.z[i])};
     }
     S reach = 0;
-    for (std::uint32_t t = b.triangle_begin[blk]; t < b.triangle_begin[blk + 1]; ++t)
-      for (int k = 0; k < 3; ++k)
-        reach = std::max(reach, rest_len(b.triangles[t][k], static_cast<std::int32_t>(b.triangles[t][(k + 1) % 3])));
+    b.for_each_triangle(blk, [&](const Triangle& t) {
+      for (int k = 0; k < 3; ++k) reach = std::max(reach, rest_len(t[k], static_cast<std::int32_t>(t[(k + 1) % 3])));
+    });
     s.reach = S(1.5) * reach;
   }
   b.awake_list.resize(b.blocks);

@@ -379,9 +379,8 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
     // Triangles first: a tool smaller than a face touches no vertex, yet must not pass.
     for (std::uint32_t q = 0; q < tc.candidate_count; ++q) {
       const std::uint32_t blk = tc.candidates[q];
-      for (std::uint32_t ti = b.triangle_begin[blk]; ti < b.triangle_begin[blk + 1]; ++ti) {
-        const Triangle& tri = b.triangles[ti];
-        if (oc[tri[0]] & oc[tri[1]] & oc[tri[2]]) continue;
+      b.for_each_triangle(blk, [&](const Triangle& tri) __attribute__((always_inline)) {
+        if (oc[tri[0]] & oc[tri[1]] & oc[tri[2]]) return;
         const V3<S> A{b.x[tri[0]], b.y[tri[0]], b.z[tri[0]]};
         const V3<S> B{b.x[tri[1]], b.y[tri[1]], b.z[tri[1]]};
         const V3<S> C{b.x[tri[2]], b.y[tri[2]], b.z[tri[2]]};
@@ -395,10 +394,10 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
                                 S(0)});
           gap2 += g * g;
         }
-        if (gap2 > far2) continue;
+        if (gap2 > far2) return;
         V3<S> N = geometry::cross(geometry::sub(B, A), geometry::sub(C, A));
         const S area2 = std::sqrt(geometry::dot(N, N));
-        if (!(area2 > S(0)) || !std::isfinite(area2)) continue;
+        if (!(area2 > S(0)) || !std::isfinite(area2)) return;
         N = geometry::mul(N, S(1) / area2);
         const V3<S> q_now = geometry::segment_point_nearest_triangle(p0, p1, A, B, C);
         V3<S> w{};
@@ -421,9 +420,9 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
           dir = geometry::mul(gap, S(-1) / dist);
           depth = r_out - dist;
         } else {
-          continue;
+          return;
         }
-        if (!(depth > S(0))) continue;
+        if (!(depth > S(0))) return;
         const S ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
         const S tn = geometry::dot(tool_velocity, dir);
         for (int v = 0; v < 3; ++v) {
@@ -434,7 +433,7 @@ void World<S>::collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1
           oc[i] = kernel::outcode(b.x[i], b.y[i], b.z[i], box_lo.data(), box_hi.data());
         }
         ++pushes;
-      }
+      });
     }
 
     // Then vertices: nothing ends inside the tool.
@@ -484,9 +483,7 @@ void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
 template <class S>
 void World<S>::snapshot(Body<S>& b, std::uint32_t blk) {
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
-  std::copy(b.x.data() + b0, b.x.data() + b1, b.sx.data() + b0);
-  std::copy(b.y.data() + b0, b.y.data() + b1, b.sy.data() + b0);
-  std::copy(b.z.data() + b0, b.z.data() + b1, b.sz.data() + b0);
+  b.save_positions(blk);
   if (b.plastic) {
     std::copy(b.rx.data() + b0, b.rx.data() + b1, b.srx.data() + b0);
     std::copy(b.ry.data() + b0, b.ry.data() + b1, b.sry.data() + b0);
@@ -503,7 +500,8 @@ void World<S>::snapshot(Body<S>& b, std::uint32_t blk) {
 template <class S>
 void World<S>::restore(Body<S>& b) {
   for (std::uint32_t i = 0; i < b.n; ++i) {
-    b.x[i] = b.sx[i], b.y[i] = b.sy[i], b.z[i] = b.sz[i];
+    const std::array<S, 3> p = b.saved_position(i);
+    b.x[i] = p[0], b.y[i] = p[1], b.z[i] = p[2];
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
     b.ax[i] = b.ay[i] = b.az[i] = S(0);
   }

@@ -2,8 +2,10 @@
 // spring model.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "sim_test_util.hpp"
@@ -430,6 +432,53 @@ TEST(Determinism, OneBlockPassMatchesPortableKernelsWithOverflow) {
       EXPECT_EQ(portable, big_cone_run(i, m, overflow));
       kernel::force_block_pieces(false);
     }
+}
+
+// Triangles are stored as 16-bit offsets from their block's first vertex;
+// on a 163 842-vertex sphere some span farther and are kept whole. Every
+// triangle of the mesh must come out of for_each_triangle once, with its
+// winding, in the block of its lowest vertex.
+TEST(Layout, EveryTriangleOnceNearOrFar) {
+  const TriangleMesh sphere = make_icosphere(0.1f, 7);
+  const Body<float> b = make_body<float>(sphere, Material{}, BodyOptions{}, 1);
+  EXPECT_GT(b.far_triangles.size(), 0u) << "the sphere must have triangles beyond a 16-bit offset";
+  EXPECT_LT(b.far_triangles.size(), sphere.triangles.size() / 100);
+  std::vector<Triangle> seen;
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk)
+    b.for_each_triangle(blk, [&](const Triangle& t) {
+      EXPECT_EQ(std::min({t[0], t[1], t[2]}) / kernel::kBlock, blk);
+      seen.push_back({b.to_original[t[0]], b.to_original[t[1]], b.to_original[t[2]]});
+    });
+  std::vector<Triangle> want(sphere.triangles.begin(), sphere.triangles.end());
+  std::sort(seen.begin(), seen.end());
+  std::sort(want.begin(), want.end());
+  EXPECT_TRUE(seen == want);
+}
+
+// The guard's snapshot keeps 16 bits per coordinate on a grid over each
+// block's box: a saved position comes back within half a grid step (plus
+// rounding), and a block with a non-finite vertex keeps its older snapshot.
+TEST(Layout, SnapshotComesBackWithinItsGrid) {
+  Body<float> b = make_body<float>(make_icosphere(0.1f, 3), Material{}, BodyOptions{}, 1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> jiggle(-0.004f, 0.004f);
+  for (std::uint32_t i = 0; i < b.n; ++i) b.x[i] += jiggle(rng), b.y[i] += jiggle(rng), b.z[i] += jiggle(rng);
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
+    const SnapshotGrid<float>& g = b.snapshot_grid[blk];
+    for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) {
+      const std::array<float, 3> p = b.saved_position(i);
+      const float want[3] = {b.x[i], b.y[i], b.z[i]};
+      for (int a = 0; a < 3; ++a) EXPECT_LE(std::abs(p[a] - want[a]), 0.5f * g.step[a] + 1e-7f) << i << " axis " << a;
+    }
+  }
+  const std::array<float, 3> before = b.saved_position(5);
+  const float keep = b.x[5];
+  b.x[3] = std::numeric_limits<float>::quiet_NaN();
+  b.x[5] += 0.01f;
+  b.save_positions(0);
+  EXPECT_EQ(b.saved_position(5), before) << "a block with a NaN keeps its older snapshot";
+  b.x[5] = keep;
 }
 
 TEST(Integrators, AllThreeAgreeOnAPress) {
