@@ -73,10 +73,10 @@ struct SimThreadOptions {
   std::uint64_t first_tick = 0;
 };
 
-// Outcome of asking for real-time scheduling: what worked and, if not, why.
 // The longest wake_early_ns a rate allows: half its period.
 std::int64_t max_wake_early_ns(double rate_hz);
 
+// Outcome of asking for real-time scheduling: what worked and, if not, why.
 struct RealtimeResult {
   bool fifo = false;
   bool locked = false;
