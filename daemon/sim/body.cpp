@@ -71,19 +71,19 @@ std::size_t Body<S>::bytes() const {
 }
 
 template <class S>
-void Body<S>::save_positions(std::uint32_t blk) {
+bool Body<S>::save_positions(std::uint32_t blk) {
   const std::uint32_t b0 = begin_of(blk), b1 = end_of(blk);
   const S* src[3] = {x.data(), y.data(), z.data()};
   std::uint16_t* dst[3] = {sx.data(), sy.data(), sz.data()};
   for (int a = 0; a < 3; ++a)
     for (std::uint32_t i = b0; i < b1; ++i)
-      if (!std::isfinite(src[a][i])) return;
+      if (!std::isfinite(src[a][i])) return false;
   SnapshotGrid<S> g;
   for (int a = 0; a < 3; ++a) {
     S lo = src[a][b0], hi = lo;
     for (std::uint32_t i = b0; i < b1; ++i) lo = std::min(lo, src[a][i]), hi = std::max(hi, src[a][i]);
     g.lo[a] = lo, g.step[a] = (hi - lo) / S(65535);
-    if (!std::isfinite(g.step[a])) return;  // a box wider than the type's range
+    if (!std::isfinite(g.step[a])) return false;  // a box wider than the type's range
   }
   // Round to nearest by truncating q + ½ (q ≥ 0): a conversion the compiler
   // vectorizes, where nearbyint is a library call on baseline x86-64.
@@ -93,6 +93,7 @@ void Body<S>::save_positions(std::uint32_t blk) {
       dst[a][i] = static_cast<std::uint16_t>(std::min(S(65535), (src[a][i] - lo) * to_grid + S(0.5)));
   }
   snapshot_grid[blk] = g;
+  return true;
 }
 
 template <class S>
@@ -164,7 +165,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     b.z[i] = b.rz[i] = static_cast<S>(p[2]);
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
   }
-  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);  // the rest shape: finite, checked above
 
   // --- springs: ELL + overflow ------------------------------------------------
   // Adjacency as a temporary CSR (a vector per vertex would double the peak

@@ -148,9 +148,9 @@ struct Body {
       f(Triangle{base + triangles[t].v[0], base + triangles[t].v[1], base + triangles[t].v[2]});
     for (std::uint32_t t = far_triangle_begin[blk]; t < far_triangle_begin[blk + 1]; ++t) f(far_triangles[t]);
   }
-  // The guard's snapshot: save block blk's positions (skipped, keeping the
+  // The guard's snapshot: save block blk's positions (false, keeping the
   // older snapshot, if any is not finite); the saved position of vertex i.
-  void save_positions(std::uint32_t blk);
+  bool save_positions(std::uint32_t blk);
   std::array<S, 3> saved_position(std::uint32_t i) const;
 };
 

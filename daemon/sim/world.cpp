@@ -483,7 +483,9 @@ void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
 template <class S>
 void World<S>::snapshot(Body<S>& b, std::uint32_t blk) {
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
-  b.save_positions(blk);
+  // Positions and clay rest shape from the same tick, or neither: a block
+  // that is not finite keeps its older snapshot whole (and stays dirty).
+  if (!b.save_positions(blk)) return;
   if (b.plastic) {
     std::copy(b.rx.data() + b0, b.rx.data() + b1, b.srx.data() + b0);
     std::copy(b.ry.data() + b0, b.ry.data() + b1, b.sry.data() + b0);
