@@ -47,11 +47,10 @@ for args in cases:
             assert k in d, f"{args}: missing {k}"
     assert d["vertices"] > 0 and d["springs"] > 0 and d["steps"] == 5
 
-# --records picks the layout, and says which it asked for.
-for records, kernel in [("off", "portable")]:
-    d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", records, "--impl", "fast",
-                   "--steps", "5", "--repeats", "1", "--json"]))[0]
-    assert d["records"] == records and d["kernel"] == kernel, d
+# --records picks the layout, and says which it asked for ("on" needs AVX2, so only "off" is checked).
+d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", "off", "--impl", "fast",
+               "--steps", "5", "--repeats", "1", "--json"]))[0]
+assert d["records"] == "off" and d["kernel"] == "portable", d
 
 for args, word in [(["--mesh", "builtin:nothing"], "builtin:nothing"), (["--model", "foam"], "--model"),
                    (["--steps", "0"], "--steps"), (["--records", "on", "--precision", "double"], "--records")]:
