@@ -66,7 +66,9 @@ std::size_t Body<S>::bytes() const {
   b += pinned.capacity() * sizeof(Pinned<S>) + pinned_begin.capacity() * 4;
   b += (block_neighbour_begin.capacity() + block_neighbours.capacity() + awake_list.capacity()) * 4;
   b += block.capacity() * sizeof(BlockState<S>);
-  for (const auto& t : tools) b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
+  b += last_reader.capacity() * 4;
+  for (const auto& t : tools)
+    b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>) + t.grab_accel.capacity() * 3 * sizeof(S);
   return b;
 }
 
@@ -155,7 +157,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   // --- state arrays ----------------------------------------------------------
-  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz, &b.ax, &b.ay, &b.az}) buf->resize(n);
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n);  // ax..az: World decides
   for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n);
   b.snapshot_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
@@ -233,6 +235,20 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     b.block_neighbours.push_back(c);
   }
   std::partial_sum(b.block_neighbour_begin.begin(), b.block_neighbour_begin.end(), b.block_neighbour_begin.begin());
+  b.last_reader.resize(b.blocks);
+  {
+    std::vector<std::int32_t> opened(b.blocks + 1, 0);  // blocks done but still read by a later one, by difference
+    for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
+      std::uint32_t last = blk;
+      for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
+        last = std::max(last, b.block_neighbours[e]);
+      b.last_reader[blk] = last;
+      ++opened[blk], --opened[last];  // waiting after the forces of blocks blk .. last − 1
+    }
+    std::int32_t waiting = 0, most = 0;
+    for (std::uint32_t blk = 0; blk < b.blocks; ++blk) most = std::max(most, waiting += opened[blk]);
+    b.pending_capacity = static_cast<std::uint32_t>(most) + 1;
+  }
 
   // --- triangles, owned by the block of their lowest vertex -------------------
   {
@@ -319,6 +335,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   for (auto& t : b.tools) {
     t.candidates.resize(b.blocks);
     t.grabs.resize(static_cast<std::size_t>(options.max_grabbed));
+    t.grab_accel.resize(t.grabs.size());
   }
   return b;
 }

@@ -68,7 +68,8 @@ template <class S>
 struct ToolContact {
   std::vector<std::uint32_t> candidates;  // capacity = blocks
   std::uint32_t candidate_count = 0;
-  std::vector<Grab<S>> grabs;             // capacity = BodyOptions::max_grabbed
+  std::vector<Grab<S>> grabs;             // capacity = BodyOptions::max_grabbed; sorted by vertex
+  std::vector<std::array<S, 3>> grab_accel;  // per grab: its spring's acceleration this substep
   std::uint32_t grab_count = 0;
   bool grabbing = false;
 };
@@ -91,7 +92,12 @@ struct Body {
   AlignedBuffer<S> x, y, z;     // positions
   AlignedBuffer<S> wx, wy, wz;  // last steps x − x_prev (position Verlet) or velocities
   AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
-  AlignedBuffer<S> ax, ay, az;  // accelerations (between force and integrate passes)
+  // Accelerations between the force and integrate passes of every vertex:
+  // only for velocity Verlet (it keeps a(t) from one step to the next) and
+  // clay on the unfused path (every block yields before any moves). Other
+  // bodies keep the accelerations of the few blocks waiting to integrate in
+  // World's pool (see last_reader).
+  AlignedBuffer<S> ax, ay, az;
   // Last good positions (the blow-up guard restores these), 16 bits per
   // coordinate on a grid over the block's box at the snapshot: a restore lands
   // within 1/131070 of that box of the saved state, in half the bytes of a copy.
@@ -119,6 +125,12 @@ struct Body {
   std::vector<Pinned<S>> pinned;              // sorted by index
   std::vector<std::uint32_t> pinned_begin;    // blocks + 1
   std::vector<std::uint32_t> block_neighbour_begin, block_neighbours;  // CSR of blocks sharing a spring
+  // Per block: the last block (in index order) whose forces read its state,
+  // itself or a spring neighbour. A block may integrate in place once the
+  // forces of every block up to that one are done; pending_capacity bounds how
+  // many wait at once (all awake, in index order), plus one.
+  std::vector<std::uint32_t> last_reader;
+  std::uint32_t pending_capacity = 1;
 
   std::vector<BlockState<S>> block;
   std::vector<std::uint32_t> awake_list;  // capacity = blocks

@@ -241,9 +241,9 @@ template <class S>
 [[gnu::always_inline]] inline S write_acc(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
                                           BlockScratch<S>& w) {
   const S inv_m = A.inv_mass;
-  S* __restrict AX = A.ax + begin;
-  S* __restrict AY = A.ay + begin;
-  S* __restrict AZ = A.az + begin;
+  S* __restrict AX = A.ax + (begin - A.acc_origin);
+  S* __restrict AY = A.ay + (begin - A.acc_origin);
+  S* __restrict AZ = A.az + (begin - A.acc_origin);
   for (std::uint32_t i = 0; i < cnt; ++i) {
     AX[i] = w.fx[i] * inv_m;
     AY[i] = w.fy[i] * inv_m;
@@ -334,7 +334,8 @@ template <class S, Integrator I>
   alignas(64) Bits<S> bits[kBlock];
   const std::uint32_t cnt = end - begin;
   integrate_loop<S, I>(A.x + begin, A.y + begin, A.z + begin, A.wx + begin, A.wy + begin, A.wz + begin,
-                       A.ax + begin, A.ay + begin, A.az + begin, A.dt, A.inv_dt, cnt, sp);
+                       A.ax + (begin - A.acc_origin), A.ay + (begin - A.acc_origin), A.az + (begin - A.acc_origin),
+                       A.dt, A.inv_dt, cnt, sp);
   std::memcpy(bits, sp, sizeof(S) * cnt);
   Bits<S> m = 0;
   for (std::uint32_t i = 0; i < cnt; ++i) m = bits[i] > m ? bits[i] : m;

@@ -42,7 +42,8 @@ struct ForceArgs {
   S stiffness, damping, anchor, anchor_damping;
   S inv_mass, inv_dt;
   S gravity_force[3];     // m·g, or 0
-  S *ax, *ay, *az;        // out: accelerations
+  S *ax, *ay, *az;        // out: accelerations, ax[i − acc_origin] for vertex i
+  std::uint32_t acc_origin = 0;  // 0 for a whole body's arrays; a block's first vertex for a pool slot
   // Optional (float): per vertex {x, y, z, 0, vx, vy, vz, 0} (linear model: u = x − r), 32-byte
   // aligned, kept current by pack(). Lets the AVX2 path fetch a neighbour with
   // two 16-byte loads instead of six scalar gathers. Same results, bit for bit.
@@ -53,8 +54,9 @@ template <class S>
 struct IntegrateArgs {
   S *x, *y, *z;
   S *wx, *wy, *wz;
-  const S *ax, *ay, *az;
+  const S *ax, *ay, *az;  // ax[i − acc_origin] for vertex i (vv_open: origin 0)
   S dt, inv_dt;
+  std::uint32_t acc_origin = 0;
 };
 
 template <class S>

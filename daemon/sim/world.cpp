@@ -72,6 +72,17 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
     awake = b.blocks;
   }
   update_box(b);
+  // Velocity Verlet keeps a(t) across steps and clay on the unfused path yields
+  // between every block's forces and any block's move: both need ax..az for
+  // every vertex. The rest integrate each block as soon as no later block
+  // reads it, from a pool slot.
+  if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
+    for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n);
+  } else if (acc_free_.size() < b.pending_capacity) {
+    acc_pool_.resize(3 * std::size_t{kBlock} * b.pending_capacity);
+    acc_free_.resize(b.pending_capacity);
+    pending_.resize(b.pending_capacity);
+  }
   const std::size_t total_blocks = changes_.size() + b.blocks;
   bodies_.push_back(std::move(b));
   base_substeps_.push_back(choice.substeps);
@@ -469,7 +480,7 @@ void World<S>::sleep(Body<S>& b, std::uint32_t blk) {
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
   for (std::uint32_t i = b0; i < b1; ++i) {
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
-    b.ax[i] = b.ay[i] = b.az[i] = S(0);
+    if (!b.ax.empty()) b.ax[i] = b.ay[i] = b.az[i] = S(0);
     pack_vertex(b, i, S(1));  // at rest: velocity 0 whatever the dt
   }
   s.awake = false;
@@ -505,7 +516,7 @@ void World<S>::restore(Body<S>& b) {
     const std::array<S, 3> p = b.saved_position(i);
     b.x[i] = p[0], b.y[i] = p[1], b.z[i] = p[2];
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
-    b.ax[i] = b.ay[i] = b.az[i] = S(0);
+    if (!b.ax.empty()) b.ax[i] = b.ay[i] = b.az[i] = S(0);
   }
   if (b.plastic) {
     std::copy_n(b.srx.data(), b.n, b.rx.data());
@@ -680,9 +691,17 @@ void World<S>::step_body(std::uint32_t bi) {
   fa.inv_mass = static_cast<S>(1.0 / m.mass);
   fa.inv_dt = S(1) / dts;
   for (int k = 0; k < 3; ++k) fa.gravity_force[k] = m.gravity ? static_cast<S>(m.mass * settings_.gravity[k]) : S(0);
-  fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();
+  fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();  // null without: a pool slot per block
   kernel::IntegrateArgs<S> ia{b.x.data(), b.y.data(), b.z.data(), b.wx.data(), b.wy.data(), b.wz.data(),
                               b.ax.data(), b.ay.data(), b.az.data(), dts, S(1) / dts};
+  const bool whole_accel = !b.ax.empty();
+  // The force and integrate passes of the block starting at b0 use pool slot k.
+  auto use_slot = [&](std::uint32_t k, std::uint32_t b0) {
+    S* a = acc_pool_.data() + 3 * std::size_t{kBlock} * k;
+    fa.ax = a, fa.ay = a + kBlock, fa.az = a + 2 * kBlock;
+    ia.ax = fa.ax, ia.ay = fa.ay, ia.az = fa.az;
+    fa.acc_origin = ia.acc_origin = b0;
+  };
   const kernel::Velocity vel = verlet ? kernel::Velocity::step : kernel::Velocity::stored;
   const S kg = static_cast<S>(m.grab_stiffness), inv_m = static_cast<S>(1.0 / m.mass);
 
@@ -738,7 +757,8 @@ void World<S>::step_body(std::uint32_t bi) {
       if (last) s.energy = pe_scratch_[q] + 0.5 * m.mass * double(sums.sum_speed2);
     };
     // Grabbed vertices follow the tool through a spring each; the tool feels
-    // the pull back. Reads x before any block of this substep integrates.
+    // the pull back. Reads x before any block of this substep integrates; each
+    // grabbed block adds the accelerations (add_grabs) after its own forces.
     auto grab_springs = [&] {
       for (std::uint32_t t = 0; t < tool_slots_; ++t) {
         ToolContact<S>& tc = b.tools[t];
@@ -749,10 +769,25 @@ void World<S>::step_body(std::uint32_t bi) {
           const Grab<S>& gr = tc.grabs[g];
           const S fx = kg * (c[0] + gr.ox - b.x[gr.i]), fy = kg * (c[1] + gr.oy - b.y[gr.i]),
                   fz = kg * (c[2] + gr.oz - b.z[gr.i]);
-          b.ax[gr.i] += fx * inv_m, b.ay[gr.i] += fy * inv_m, b.az[gr.i] += fz * inv_m;
+          tc.grab_accel[g] = {fx * inv_m, fy * inv_m, fz * inv_m};
           tr.force[0] -= double(fx) / nsub, tr.force[1] -= double(fy) / nsub, tr.force[2] -= double(fz) / nsub;
         }
         tr.contacts = std::max(tr.contacts, tc.grab_count);
+      }
+    };
+    auto add_grabs = [&](std::uint32_t blk) {  // into fa.ax.. (the block's accelerations), tool by tool
+      const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
+      for (std::uint32_t t = 0; t < tool_slots_; ++t) {
+        const ToolContact<S>& tc = b.tools[t];
+        if (!tc.grabbing) continue;
+        const Grab<S>* first = tc.grabs.data();
+        const Grab<S>* g = std::lower_bound(first, first + tc.grab_count, b0,
+                                            [](const Grab<S>& gr, std::uint32_t v) { return gr.i < v; });
+        for (; g != first + tc.grab_count && g->i < b1; ++g) {
+          const std::array<S, 3>& acc = tc.grab_accel[g - first];
+          const std::uint32_t k = g->i - fa.acc_origin;
+          fa.ax[k] += acc[0], fa.ay[k] += acc[1], fa.az[k] += acc[2];
+        }
       }
     };
     auto mark_grabbed = [&](bool on) {
@@ -766,27 +801,24 @@ void World<S>::step_body(std::uint32_t bi) {
         fa.packed = b.packed[b.packed_cur].data();
         float* next = b.packed[b.packed_cur ^ 1].data();
         if (grabbing) {
-          // A block holding grabbed vertices goes in pieces: its forces now
-          // (nothing has integrated yet, and neighbours come from the current
-          // packed buffer either way), the grab springs, and below integrate
-          // and pack. The same operations in the same order as the unfused
-          // path: the same bits.
           mark_grabbed(true);
-          for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-            const std::uint32_t blk = b.awake_list[q];
-            if (!b.block[blk].grabbed) continue;
-            pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk),
-                                            b.overflow_begin[blk], b.overflow_begin[blk + 1]);
-            if (clay && sub == 0)  // before it moves, as the fused blocks mark theirs
-              kernel::yield_candidates(fa, static_cast<S>(m.yield_strain), anchor_limit(b),
-                                       m.model == ForceModel::spring, b.begin_of(blk), b.end_of(blk), mask_of(q));
-          }
           grab_springs();
         }
         const bool yields = clay && sub == 0;
         for (std::uint32_t q = 0; q < b.awake_count; ++q) {
           const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
+          if (!whole_accel) use_slot(0, b0);  // nothing waits here: later blocks read the other packed buffer
           if (b.block[blk].grabbed) {
+            // A block holding grabbed vertices goes in pieces: its forces (its
+            // own x and w are still the step's start, its neighbours come from
+            // the current packed buffer), the grab springs, integrate, pack.
+            // The same operations in the same order as the unfused path: the
+            // same bits.
+            pe_scratch_[q] = kernel::forces(fa, m.model, vel, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+            if (yields)  // before it moves, as the fused blocks mark theirs
+              kernel::yield_candidates(fa, static_cast<S>(m.yield_strain), anchor_limit(b),
+                                       m.model == ForceModel::spring, b0, b1, mask_of(q));
+            add_grabs(blk);
             account(q, kernel::integrate(ia, integ, b0, b1));
             kernel::pack(fa, m.model, vel, next, b0, b1);
             continue;
@@ -814,18 +846,58 @@ void World<S>::step_body(std::uint32_t bi) {
             kernel::pack(fa, m.model, vel, b.packed[b.packed_cur].data(), b.begin_of(b.awake_list[q]),
                          b.end_of(b.awake_list[q]));
       }
-      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-        const std::uint32_t blk = b.awake_list[q];
-        pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
-                                        b.overflow_begin[blk + 1]);
+      if (grabbing) {
+        mark_grabbed(true);
+        grab_springs();
       }
-      grab_springs();
-      if (clay && sub == 0 && integ != Integrator::velocity_verlet)  // nothing has moved yet (Verlet: done above)
-        for (std::uint32_t q = 0; q < b.awake_count; ++q) plastic_flow(b, b.awake_list[q], mask_of(0));
-      for (std::uint32_t q = 0; q < b.awake_count; ++q) {
-        const std::uint32_t blk = b.awake_list[q];
-        account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
+      if (whole_accel) {
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q];
+          pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
+                                          b.overflow_begin[blk + 1]);
+        }
+        if (clay && sub == 0 && integ != Integrator::velocity_verlet)  // nothing has moved yet (Verlet: done above)
+          for (std::uint32_t q = 0; q < b.awake_count; ++q) plastic_flow(b, b.awake_list[q], mask_of(0));
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q];
+          if (b.block[blk].grabbed) add_grabs(blk);
+          account(q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
+        }
+      } else {
+        // Jacobi in place: a block integrates once every block that reads it
+        // (last_reader) has its forces, so nothing reads a moved neighbour,
+        // and its accelerations wait in a pool slot meanwhile: a handful of
+        // blocks, not ax..az for every vertex. The same operations on the same
+        // inputs as forces-then-integrate over the whole body: the same bits.
+        std::uint32_t free_slots = 0, waiting = 0;
+        for (std::uint32_t k = 0; k < b.pending_capacity; ++k) acc_free_[free_slots++] = k;
+        auto integrate_waiting = [&](const Pending& p) {
+          const std::uint32_t blk = b.awake_list[p.q];
+          use_slot(p.slot, b.begin_of(blk));
+          if (b.block[blk].grabbed) add_grabs(blk);
+          account(p.q, kernel::integrate(ia, integ, b.begin_of(blk), b.end_of(blk)));
+          acc_free_[free_slots++] = p.slot;
+        };
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q];
+          const std::uint32_t slot = acc_free_[--free_slots];  // pending_capacity: never the last one
+          use_slot(slot, b.begin_of(blk));
+          pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
+                                          b.overflow_begin[blk + 1]);
+          pending_[waiting++] = {q, slot};
+          // Blocks between this one and the next awake one sleep: they read nothing.
+          const std::uint32_t next_reader = q + 1 < b.awake_count ? b.awake_list[q + 1] : b.blocks;
+          for (std::uint32_t p = 0; p < waiting;) {
+            if (b.last_reader[b.awake_list[pending_[p].q]] < next_reader) {
+              integrate_waiting(pending_[p]);
+              pending_[p] = pending_[--waiting];
+            } else {
+              ++p;
+            }
+          }
+        }
       }
+      if (grabbing) mark_grabbed(false);
     }
     const std::uint64_t n0 = stage_clock_ ? stage_clock_() : 0;
     for (std::uint32_t t = 0; t < tool_slots_; ++t) {
@@ -988,6 +1060,7 @@ std::uint64_t World<S>::hash() const {
 template <class S>
 std::size_t World<S>::bytes() const {
   std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + pe_scratch_.capacity() * 8 +
+                      acc_pool_.bytes() + acc_free_.capacity() * 4 + pending_.capacity() * sizeof(Pending) +
                       yield_masks_.capacity() + outcode_.capacity() + outcode_stamp_.capacity() * sizeof(std::uint32_t);
   for (const Body<S>& b : bodies_) total += b.bytes();
   return total;

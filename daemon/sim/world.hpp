@@ -132,6 +132,16 @@ class World {
   std::size_t change_count_ = 0;
   std::vector<double> pe_scratch_;  // per awake block, last substep's potential energy
   std::vector<std::uint8_t> yield_masks_;  // clay: yield marks per awake block (yield_mask_bytes each)
+  // Accelerations of blocks whose forces are done and whose integration waits
+  // for the last block that reads them (bodies without their own ax..az):
+  // slot k holds ax, ay, az of kBlock vertices at 3·kBlock·k. Sized for the
+  // largest pending_capacity.
+  struct Pending {
+    std::uint32_t q, slot;  // awake-list index, pool slot
+  };
+  AlignedBuffer<S> acc_pool_;
+  std::vector<std::uint32_t> acc_free_;  // free slots (a stack)
+  std::vector<Pending> pending_;
   // Narrow phase: per vertex, which faces of the sweep's tool box it lies beyond;
   // valid for a block whose stamp equals the epoch (one epoch per sweep).
   std::vector<std::uint8_t> outcode_;

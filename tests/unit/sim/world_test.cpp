@@ -479,6 +479,40 @@ TEST(Layout, SnapshotComesBackWithinItsGrid) {
   EXPECT_EQ(b.saved_position(5), before) << "a block with a NaN keeps its older snapshot";
 }
 
+// A block integrates once its last reader has its forces: last_reader is
+// the largest block index among itself and its spring neighbours, and
+// pending_capacity bounds the blocks that wait at once (all awake, in order).
+// Only velocity Verlet and clay keep accelerations for every vertex.
+TEST(Layout, BlocksWaitOnlyForTheirLastReader) {
+  const TriangleMesh sphere = make_icosphere(0.1f, 6);
+  const Body<float> b = make_body<float>(sphere, Material{}, BodyOptions{}, 1);
+  std::uint32_t most = 0;
+  for (std::uint32_t k = 0; k < b.blocks; ++k) {
+    std::uint32_t want = k;
+    for (std::uint32_t e = b.block_neighbour_begin[k]; e < b.block_neighbour_begin[k + 1]; ++e)
+      want = std::max(want, b.block_neighbours[e]);
+    EXPECT_EQ(b.last_reader[k], want);
+    std::uint32_t waiting = 0;  // after the forces of block k
+    for (std::uint32_t j = 0; j <= k; ++j) waiting += b.last_reader[j] > k;
+    most = std::max(most, waiting);
+  }
+  EXPECT_EQ(b.pending_capacity, most + 1);
+  EXPECT_GT(most, 0u) << "Morton seams: some blocks must wait";
+  EXPECT_LT(b.pending_capacity, b.blocks / 4);
+
+  for (Integrator integ : {Integrator::position_verlet, Integrator::symplectic_euler, Integrator::velocity_verlet})
+    for (bool clay : {false, true}) {
+      SimSettings s;
+      s.integrator = integ;
+      World<float> w(s, 1);
+      Material m;
+      m.plastic = clay;
+      w.add_body(sphere, m);
+      const bool whole = clay || integ == Integrator::velocity_verlet;
+      EXPECT_EQ(w.body(0).ax.size(), whole ? w.body(0).n : 0u) << "clay " << clay;
+    }
+}
+
 TEST(Integrators, AllThreeAgreeOnAPress) {
   // Same scene, three integrators: the dent differs by far less than its depth.
   double height[3];
