@@ -210,14 +210,26 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   b.nbr.resize(static_cast<std::size_t>(b.slots) * n);
   if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n);
   b.overflow_begin.assign(b.blocks + 1, 0);
+  // Each row in sorted order: the near neighbours fill the slots, the rest
+  // (past the width, or farther than an int16 offset) go to the overflow list;
+  // padding is the vertex itself (offset 0, rest length 0: zero force).
   for (std::uint32_t i = 0; i < n; ++i) {
-    for (int s = 0; s < b.slots; ++s) {
-      const bool real = s < degree[i];
-      const std::int32_t j = real ? adj[i][s] : static_cast<std::int32_t>(i);  // padding: self, zero force
-      b.nbr[static_cast<std::size_t>(s) * n + i] = j;
-      if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = real ? rest_len(i, j) : S(0);
+    int s = 0;
+    for (int e = 0; e < degree[i]; ++e) {
+      const std::int32_t j = adj[i][e];
+      const std::int64_t off = std::int64_t{j} - i;
+      if (s < b.slots && off >= INT16_MIN && off <= INT16_MAX) {
+        b.nbr[static_cast<std::size_t>(s) * n + i] = static_cast<std::int16_t>(off);
+        if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = rest_len(i, j);
+        ++s;
+      } else {
+        b.overflow.push_back({i, j, rest_len(i, j)});
+      }
     }
-    for (int s = b.slots; s < degree[i]; ++s) b.overflow.push_back({i, adj[i][s], rest_len(i, adj[i][s])});
+    for (; s < b.slots; ++s) {
+      b.nbr[static_cast<std::size_t>(s) * n + i] = 0;
+      if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = S(0);
+    }
   }
   for (const auto& o : b.overflow) ++b.overflow_begin[o.i / kBlock + 1];
   std::partial_sum(b.overflow_begin.begin(), b.overflow_begin.end(), b.overflow_begin.begin());

@@ -110,7 +110,9 @@ struct Body {
   AlignedBuffer<S> packed[2];
   int packed_cur = 0;
 
-  AlignedBuffer<std::int32_t> nbr;  // slots × n, slot-major
+  // Slot s of vertex i: neighbour − i (16 bits: springs reaching farther in
+  // the Morton order go to the overflow list), slot-major, slots × n.
+  AlignedBuffer<std::int16_t> nbr;
   AlignedBuffer<S> rest_length;     // slots × n (spring model only)
   std::vector<kernel::Overflow<S>> overflow;
   std::vector<std::uint32_t> overflow_begin;  // blocks + 1

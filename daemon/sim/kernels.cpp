@@ -156,12 +156,12 @@ template <class S, ForceModel M, Velocity V>
   const S* __restrict RZ = A.rz;
   const S inv_dt = A.inv_dt, k = A.stiffness, c = A.damping, quarter_k = S(0.25) * k;
   for (int s = 0; s < A.slots; ++s) {
-    const std::int32_t* __restrict nb = A.nbr + static_cast<std::size_t>(s) * A.stride + begin;
+    const std::int16_t* __restrict nb = A.nbr + static_cast<std::size_t>(s) * A.stride + begin;
     const S* __restrict L = M == ForceModel::spring ? A.rest_length + static_cast<std::size_t>(s) * A.stride + begin
                                                     : nullptr;
     for (std::uint32_t i = 0; i < cnt; ++i) {
       const std::uint32_t v = begin + i;
-      const std::int32_t j = nb[i];
+      const std::int32_t j = static_cast<std::int32_t>(v) + nb[i];
       S ujx, ujy, ujz;
       if constexpr (V == Velocity::step) {
         ujx = WX[j] * inv_dt;
@@ -389,8 +389,31 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
   oz = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
 }
 
-// The neighbour slots of eight consecutive vertices (nb0, L0 point at the
-// first of them in slot 0): each neighbour fetched as two 16-byte loads from
+// One spring per lane (spring model), pair_force's operations in its order
+// without fused multiply-adds (identical bits): adds the force on the lane's
+// vertex to f, its half energy to pe; returns the length.
+__attribute__((target("avx2"), always_inline)) inline __m256 spring_lanes(__m256 dx, __m256 dy, __m256 dz, __m256 dvx,
+                                                                          __m256 dvy, __m256 dvz, __m256 rest,
+                                                                          __m256 k8, __m256 c8, __m256 qk8, __m256 one8,
+                                                                          __m256 tiny8, __m256& fx, __m256& fy,
+                                                                          __m256& fz, __m256& pe) {
+  const __m256 len =
+      _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+  const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
+  const __m256 stretch = _mm256_sub_ps(len, rest);
+  const __m256 dvd =
+      _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
+  const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
+                                  _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
+  fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
+  fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
+  fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
+  pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
+  return len;
+}
+
+// The neighbour slots of eight consecutive vertices (P8 at the first one's
+// record, nb0 and L0 at its slot-0 entries): each neighbour fetched as two 16-byte loads from
 // the packed array and transposed to x/y/z lanes. Every arithmetic step is the
 // one pair_force() does, in the same order, without fused multiply-adds:
 // identical bits. Accumulates into f and pe, in slot order.
@@ -399,14 +422,14 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
 // (same length bits, same thresholds), from the length the force needs anyway.
 template <ForceModel M, bool Yield = false>
 __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
-    const float* __restrict P, const std::int32_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
+    const float* __restrict P8, const std::int16_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
     int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
     __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8, __m256 down8,
     std::uint8_t* marks) {
   for (int s = 0; s < slots; ++s) {
-    const std::int32_t* nb = nb0 + s * stride;
+    const std::int16_t* nb = nb0 + s * stride;
     const float* p[8];
-    for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[l]);
+    for (int l = 0; l < 8; ++l) p[l] = P8 + 8 * static_cast<std::ptrdiff_t>(l + nb[l]);
     __m256 xj, yj, zj, vxj, vyj, vzj;
     gather_lanes(p, 0, xj, yj, zj);
     gather_lanes(p, 4, vxj, vyj, vzj);
@@ -420,24 +443,13 @@ __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
           pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
                                                _mm256_mul_ps(dz, dz))));
     } else {
-      const __m256 len = _mm256_sqrt_ps(
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
-      const __m256 inv = _mm256_div_ps(one8, _mm256_add_ps(len, tiny8));
       const __m256 rest = _mm256_loadu_ps(L0 + s * stride);
-      const __m256 stretch = _mm256_sub_ps(len, rest);
+      const __m256 len = spring_lanes(dx, dy, dz, dvx, dvy, dvz, rest, k8, c8, qk8, one8, tiny8, fx, fy, fz, pe);
       if constexpr (Yield) {
         const __m256 past = _mm256_or_ps(_mm256_cmp_ps(len, _mm256_mul_ps(rest, up8), _CMP_GT_OQ),
                                          _mm256_cmp_ps(len, _mm256_mul_ps(rest, down8), _CMP_LT_OQ));
         marks[static_cast<std::size_t>(s) * (kBlock / 8)] = static_cast<std::uint8_t>(_mm256_movemask_ps(past));
       }
-      const __m256 dvd =
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dvx, dx), _mm256_mul_ps(dvy, dy)), _mm256_mul_ps(dvz, dz));
-      const __m256 sc = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(k8, stretch), inv),
-                                      _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(c8, dvd), inv), inv));
-      fx = _mm256_add_ps(fx, _mm256_mul_ps(sc, dx));
-      fy = _mm256_add_ps(fy, _mm256_mul_ps(sc, dy));
-      fz = _mm256_add_ps(fz, _mm256_mul_ps(sc, dz));
-      pe = _mm256_add_ps(pe, _mm256_mul_ps(_mm256_mul_ps(qk8, stretch), stretch));
     }
   }
 }
@@ -456,7 +468,7 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
   // Vertex groups outside, slots inside: the accumulators stay in registers
   // and each vertex still sums its springs in slot order (same bits).
   const std::size_t stride = A.stride;
-  const std::int32_t* __restrict nb0 = A.nbr + begin;
+  const std::int16_t* __restrict nb0 = A.nbr + begin;
   const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;  // linear: none
   std::uint32_t i = 0;
   for (; i + 8 <= cnt; i += 8) {
@@ -470,7 +482,8 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
     __m256 pe = _mm256_load_ps(w.pe + i);
-    accumulate_slots8<M>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
+    accumulate_slots8<M>(P + 8 * static_cast<std::size_t>(v), nb0 + i, M == ForceModel::spring ? L0 + i : nullptr,
+                         stride, A.slots, k8, c8, qk8, one8,
                          tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
     _mm256_store_ps(w.fx + i, fx);
     _mm256_store_ps(w.fy + i, fy);
@@ -480,7 +493,7 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
   for (; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
     for (int s = 0; s < A.slots; ++s) {
-      const float* pj = P + 8 * static_cast<std::size_t>(nb0[s * stride + i]);
+      const float* pj = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(v) + nb0[s * stride + i]);
       float xi = A.x[v], yi = A.y[v], zi = A.z[v], len = 0;
       if constexpr (M == ForceModel::linear) xi = xi - A.rx[v], yi = yi - A.ry[v], zi = zi - A.rz[v];
       else len = L0[s * stride + i];
@@ -513,6 +526,83 @@ __attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>&
   } else {
     if (bd) forces_avx2_block<ForceModel::linear, Velocity::step>(A, begin, cnt, ob, oe, w);
     else forces_avx2_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
+  }
+  return write_acc<float>(A, begin, cnt, w);
+}
+
+// The spring model's neighbour loop for bodies without packed records (the
+// big ones): eight vertices at a time, each neighbour by hardware gather from
+// the arrays, its 16-bit offset widened and added to the vertex index. The
+// compiler's own loop (forces_portable) loads lane by lane and, with 16-bit
+// offsets, extracts each from a vector: ~18% more instructions. Same
+// operations as pair_force in the same order: identical bits.
+// a[j[0]], …, a[j[7]] by scalar loads: vgatherdps is slower on this CPU.
+__attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float* __restrict a, const std::int32_t* j) {
+  return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
+}
+
+template <Velocity V>
+__attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(const ForceArgs<float>& A,
+                                                                              std::uint32_t begin, std::uint32_t cnt,
+                                                                              BlockScratch<float>& w) {
+  const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
+  const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(quarter_k);
+  const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
+  const __m256 inv_dt8 = _mm256_set1_ps(A.inv_dt);
+  const std::size_t stride = A.stride;
+  const std::int16_t* __restrict nb0 = A.nbr + begin;
+  const float* __restrict L0 = A.rest_length + begin;
+  std::uint32_t i = 0;
+  for (; i + 8 <= cnt; i += 8) {
+    const std::uint32_t v = begin + i;
+    const __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
+    __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
+    __m256 pe = _mm256_load_ps(w.pe + i);
+    for (int s = 0; s < A.slots; ++s) {
+      const std::int16_t* nb = nb0 + s * stride + i;
+      std::int32_t j[8];
+      for (int l = 0; l < 8; ++l) j[l] = static_cast<std::int32_t>(v) + l + nb[l];
+      __m256 vxj = gather8(A.wx, j), vyj = gather8(A.wy, j), vzj = gather8(A.wz, j);
+      if constexpr (V == Velocity::step)
+        vxj = _mm256_mul_ps(vxj, inv_dt8), vyj = _mm256_mul_ps(vyj, inv_dt8), vzj = _mm256_mul_ps(vzj, inv_dt8);
+      const __m256 dx = _mm256_sub_ps(gather8(A.x, j), xi);
+      const __m256 dy = _mm256_sub_ps(gather8(A.y, j), yi);
+      const __m256 dz = _mm256_sub_ps(gather8(A.z, j), zi);
+      spring_lanes(dx, dy, dz, _mm256_sub_ps(vxj, vxi), _mm256_sub_ps(vyj, vyi), _mm256_sub_ps(vzj, vzi),
+                   _mm256_loadu_ps(L0 + s * stride + i), k8, c8, qk8, one8, tiny8, fx, fy, fz, pe);
+    }
+    _mm256_store_ps(w.fx + i, fx);
+    _mm256_store_ps(w.fy + i, fy);
+    _mm256_store_ps(w.fz + i, fz);
+    _mm256_store_ps(w.pe + i, pe);
+  }
+  for (; i < cnt; ++i) {
+    const std::uint32_t v = begin + i;
+    for (int s = 0; s < A.slots; ++s) {
+      const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
+      float ujx = A.wx[j], ujy = A.wy[j], ujz = A.wz[j];
+      if constexpr (V == Velocity::step) ujx = ujx * A.inv_dt, ujy = ujy * A.inv_dt, ujz = ujz * A.inv_dt;
+      pair_force<float, ForceModel::spring>(A.x[j] - A.x[v], A.y[j] - A.y[v], A.z[j] - A.z[v], ujx - w.vx[i],
+                                            ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, L0[s * stride + i], k, c,
+                                            quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+    }
+  }
+}
+
+// Forces for one block of a spring-model body without packed records.
+__attribute__((target("avx2"))) float forces_avx2_gather(const ForceArgs<float>& A, Velocity vel, std::uint32_t begin,
+                                                         std::uint32_t end, std::uint32_t ob, std::uint32_t oe) {
+  BlockScratch<float> w;
+  const std::uint32_t cnt = end - begin;
+  if (vel == Velocity::step) {
+    init_block<float, Velocity::step>(A, begin, cnt, w);
+    slots_avx2_gather<Velocity::step>(A, begin, cnt, w);
+    overflow_block<float, ForceModel::spring, Velocity::step, false>(A, begin, ob, oe, w);
+  } else {
+    init_block<float, Velocity::stored>(A, begin, cnt, w);
+    slots_avx2_gather<Velocity::stored>(A, begin, cnt, w);
+    overflow_block<float, ForceModel::spring, Velocity::stored, false>(A, begin, ob, oe, w);
   }
   return write_acc<float>(A, begin, cnt, w);
 }
@@ -549,8 +639,10 @@ float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uin
              std::uint32_t ob, std::uint32_t oe) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   const bool avx2 = g_has_avx2;
-  if (avx2 && a.packed && !g_portable.load(std::memory_order_relaxed))
-    return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
+  if (avx2 && !g_portable.load(std::memory_order_relaxed)) {
+    if (a.packed) return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
+    if (model == ForceModel::spring) return forces_avx2_gather(a, vel, begin, end, ob, oe);
+  }
 #endif
   return forces_portable(a, model, vel, begin, end, ob, oe);
 }
@@ -814,7 +906,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
   const __m256 in_inv_dt = _mm256_set1_ps(In.inv_dt);
   const std::size_t stride = A.stride;
   const float* __restrict P = A.packed;
-  const std::int32_t* __restrict nb0 = A.nbr + begin;
+  const std::int16_t* __restrict nb0 = A.nbr + begin;
   const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;
   float* __restrict X = In.x + begin;
   float* __restrict Y = In.y + begin;
@@ -859,7 +951,8 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
     }
     __m256 xi = x, yi = y, zi = z;
     if constexpr (M == ForceModel::linear) xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
-    accumulate_slots8<M, Yield>(P, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
+    accumulate_slots8<M, Yield>(P + 8 * static_cast<std::size_t>(begin + i), nb0 + i,
+                                M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
                                 one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe, up8, down8,
                                 marks ? marks + kBlock / 8 + i / 8 : nullptr);
     if (extras) {
@@ -974,7 +1067,7 @@ bool yield_candidates_scalar(const ForceArgs<S>& a, S yield, S anchor_limit, boo
     std::uint8_t* row = mask + kRow * (1 + s);
     const std::size_t o = static_cast<std::size_t>(s) * a.stride;
     for (std::uint32_t i = begin; i < end; ++i) {
-      const std::int32_t j = a.nbr[o + i];
+      const std::int32_t j = static_cast<std::int32_t>(i) + a.nbr[o + i];
       if (!spring_quiet(a.x[j] - a.x[i], a.y[j] - a.y[i], a.z[j] - a.z[i], a.rest_length[o + i], yield)) {
         row[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
         any = true;
@@ -1024,17 +1117,19 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
   const __m256 up = _mm256_set1_ps(1.0f + yield), down = _mm256_set1_ps(1.0f - yield);
   const __m256 shrink = _mm256_set1_ps(kYieldShrink<float>), grow = _mm256_set1_ps(kYieldGrow<float>);
   for (int s = 0; s < slots; ++s) {
-    const std::int32_t* __restrict nb = a.nbr + s * stride;
+    const std::int16_t* __restrict nb = a.nbr + s * stride;
     const float* __restrict L = a.rest_length + s * stride;
     std::memset(mask, 0, kRow);
     for (std::uint32_t i = begin; i < whole; i += 8) {
       __m256 xj, yj, zj;
       if (P) {
         const float* p[8];
-        for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(nb[i + l]);
+        for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(i + l) + nb[i + l]);
         gather_lanes(p, 0, xj, yj, zj);
       } else {
-        const __m256i j = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(nb + i));
+        const __m256i j = _mm256_add_epi32(
+            _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(nb + i))),
+            _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(i)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
         xj = _mm256_i32gather_ps(X, j, 4), yj = _mm256_i32gather_ps(Y, j, 4), zj = _mm256_i32gather_ps(Z, j, 4);
       }
       const __m256 dx = _mm256_sub_ps(xj, _mm256_loadu_ps(X + i));
@@ -1052,7 +1147,7 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
       any |= m;
     }
     for (std::uint32_t i = whole; i < end; ++i) {
-      const std::int32_t j = nb[i];
+      const std::int32_t j = static_cast<std::int32_t>(i) + nb[i];
       if (!spring_quiet(X[j] - X[i], Y[j] - Y[i], Z[j] - Z[i], L[i], yield)) {
         mask[(i - begin) / 8] |= static_cast<std::uint8_t>(1u << ((i - begin) % 8));
         any = 1;

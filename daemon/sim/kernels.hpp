@@ -1,8 +1,8 @@
 // The hot loops of a substep, over one block of consecutive (spatially
 // ordered) vertices: gather the spring forces by vertex (no scatter, so no
 // write conflicts and a fixed summation order), then integrate. Structure of
-// arrays, neighbours in a slot-major padded ELL table (slot s of vertex i at
-// nbr[s·stride + i]; padding points at i itself and has rest length 0, which
+// arrays, neighbours in a slot-major padded ELL table (slot s of vertex i is
+// i + nbr[s·stride + i]; padding points at i itself and has rest length 0, which
 // gives exactly zero force), rare high-degree extras in an overflow list.
 // Every loop is element-wise, so the AVX2 clone and the baseline x86-64 clone
 // perform the same IEEE operations in the same order: bit-identical results.
@@ -34,7 +34,7 @@ struct ForceArgs {
   const S *x, *y, *z;     // positions
   const S *wx, *wy, *wz;  // last steps or velocities (see Velocity)
   const S *rx, *ry, *rz;  // rest positions
-  const std::int32_t* nbr;
+  const std::int16_t* nbr;  // neighbour − vertex
   const S* rest_length;   // ELL rest lengths (spring model), same layout as nbr
   std::uint32_t stride;
   int slots;
@@ -138,7 +138,8 @@ void outcodes(const float* x, const float* y, const float* z, std::uint32_t begi
 void outcodes(const double* x, const double* y, const double* z, std::uint32_t begin, std::uint32_t end,
               const double* lo, const double* hi, std::uint8_t* out);
 
-// Testing knob: never take the AVX2 packed path (the portable clones still run).
+// Testing knob: never take the hand-written AVX2 paths, packed or gathering
+// (the portable clones still run).
 void force_portable(bool on);
 // Testing and benchmark knob: run whole blocks of the fused pass as separate
 // pieces (forces, integrate, pack), as before the one-pass block kernel.

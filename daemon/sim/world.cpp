@@ -623,7 +623,7 @@ void World<S>::plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* 
   auto set_mirror = [&](std::uint32_t j, std::uint32_t i, S value) {
     for (int s = 0; s < b.slots; ++s) {
       const std::size_t e = static_cast<std::size_t>(s) * b.n + j;
-      if (b.nbr[e] == static_cast<std::int32_t>(i) && j != i) {
+      if (static_cast<std::int32_t>(j) + b.nbr[e] == static_cast<std::int32_t>(i) && j != i) {
         b.rest_length[e] = value;
         b.block[j / kBlock].dirty = true;
         return;
@@ -652,7 +652,7 @@ void World<S>::plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* 
   for (int s = 0; s < b.slots; ++s)
     each_marked(mask + kRow * (1 + s), [&](std::uint32_t i) {
       const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
-      yield_spring(i, b.nbr[e], b.rest_length[e]);
+      yield_spring(i, static_cast<std::int32_t>(i) + b.nbr[e], b.rest_length[e]);
     });
   for (std::uint32_t o = b.overflow_begin[blk]; o < b.overflow_begin[blk + 1]; ++o)
     yield_spring(b.overflow[o].i, b.overflow[o].j, b.overflow[o].rest_length);

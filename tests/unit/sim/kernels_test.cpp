@@ -60,7 +60,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
   std::vector<float> x(n), y(n, 0.0f), z(n, 0.0f), rx(n), ry(n, 0.0f), rz(n, 0.0f);
   for (std::uint32_t i = 0; i < n; ++i) x[i] = static_cast<float>(i) * edge * (1.0f + strain(rng));
   for (std::uint32_t i = 1; i < n; ++i) x[i] = std::max(x[i], x[i - 1] + 0.5f * edge);
-  std::vector<std::int32_t> nbr(static_cast<std::size_t>(slots) * n);
+  std::vector<std::int16_t> nbr(static_cast<std::size_t>(slots) * n);  // neighbour − vertex
   std::vector<float> rest(nbr.size());
   for (std::uint32_t i = 0; i < n; ++i) {
     const std::int32_t l = i > 0 ? static_cast<std::int32_t>(i - 1) : static_cast<std::int32_t>(i);
@@ -68,7 +68,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
     const std::int32_t js[3] = {l, r, static_cast<std::int32_t>(i)};
     for (int s = 0; s < slots; ++s) {
       const std::size_t e = static_cast<std::size_t>(s) * n + i;
-      nbr[e] = js[s];
+      nbr[e] = static_cast<std::int16_t>(js[s] - static_cast<std::int32_t>(i));
       const float len = std::abs(x[js[s]] - x[i]);
       // Rest lengths that put the strain within ±3e-4 of ±yield, or anywhere.
       const float target = (i % 3 == 0) ? strain(rng) : (i % 2 ? yield : -yield) + near(rng);
@@ -102,7 +102,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
         marked_total += bit(0, i);
         for (int s = 0; s < slots; ++s) {
           const std::size_t e = static_cast<std::size_t>(s) * n + i;
-          const std::int32_t j = nbr[e];
+          const std::int32_t j = static_cast<std::int32_t>(i) + nbr[e];
           const float dx = x[j] - x[i], dy = y[j] - y[i], dz = z[j] - z[i];
           const float len = std::sqrt(dx * dx + dy * dy + dz * dz);
           const bool yields = j != static_cast<std::int32_t>(i) &&
