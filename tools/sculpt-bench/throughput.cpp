@@ -20,6 +20,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "common.hpp"
@@ -159,7 +160,11 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   nlohmann::json j;
   j["substeps"] = world.substeps(0);
   j["clone"] = sim::kernel::active_clone();
-  j["kernel"] = !world.body(0).packed[0].empty() && sim::kernel::packed_path_active() ? "avx2-packed" : "portable";
+  // Which force kernel ran: packed records, lane-by-lane AVX2 loads from the
+  // arrays (float spring model without records), or the compiler's clones.
+  const bool avx2 = sim::kernel::packed_path_active();  // AVX2 CPU, testing knob off
+  const bool gather = std::is_same_v<S, float> && world.body(0).material.model == sim::ForceModel::spring;
+  j["kernel"] = !world.body(0).packed[0].empty() && avx2 ? "avx2-packed" : avx2 && gather ? "avx2-gather" : "portable";
   if (!fast.seconds.empty()) {
     const double per_step = median(fast.seconds) / o.steps;
     j["ms_per_step"] = per_step * 1e3;
