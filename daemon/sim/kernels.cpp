@@ -389,6 +389,21 @@ __attribute__((target("avx2"), always_inline)) inline void gather_lanes(const fl
   oz = _mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
 }
 
+// A group of eight vertices' force and energy sums, from and back to the scratch.
+__attribute__((target("avx2"), always_inline)) inline void load_sums8(const BlockScratch<float>& w, std::uint32_t i,
+                                                                        __m256& fx, __m256& fy, __m256& fz,
+                                                                        __m256& pe) {
+  fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
+  pe = _mm256_load_ps(w.pe + i);
+}
+__attribute__((target("avx2"), always_inline)) inline void store_sums8(BlockScratch<float>& w, std::uint32_t i,
+                                                                         __m256 fx, __m256 fy, __m256 fz, __m256 pe) {
+  _mm256_store_ps(w.fx + i, fx);
+  _mm256_store_ps(w.fy + i, fy);
+  _mm256_store_ps(w.fz + i, fz);
+  _mm256_store_ps(w.pe + i, pe);
+}
+
 // One spring per lane (spring model), pair_force's operations in its order
 // without fused multiply-adds (identical bits): adds the force on the lane's
 // vertex to f, its half energy to pe; returns the length.
@@ -480,15 +495,12 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
       zi = _mm256_sub_ps(zi, _mm256_loadu_ps(A.rz + v));
     }
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
-    __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
-    __m256 pe = _mm256_load_ps(w.pe + i);
+    __m256 fx, fy, fz, pe;
+    load_sums8(w, i, fx, fy, fz, pe);
     accumulate_slots8<M>(P + 8 * static_cast<std::size_t>(v), nb0 + i, M == ForceModel::spring ? L0 + i : nullptr,
-                         stride, A.slots, k8, c8, qk8, one8,
-                         tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
-    _mm256_store_ps(w.fx + i, fx);
-    _mm256_store_ps(w.fy + i, fy);
-    _mm256_store_ps(w.fz + i, fz);
-    _mm256_store_ps(w.pe + i, pe);
+                         stride, A.slots, k8, c8, qk8, one8, tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8,
+                         one8, nullptr);
+    store_sums8(w, i, fx, fy, fz, pe);
   }
   for (; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
@@ -557,8 +569,8 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(con
     const std::uint32_t v = begin + i;
     const __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
-    __m256 fx = _mm256_load_ps(w.fx + i), fy = _mm256_load_ps(w.fy + i), fz = _mm256_load_ps(w.fz + i);
-    __m256 pe = _mm256_load_ps(w.pe + i);
+    __m256 fx, fy, fz, pe;
+    load_sums8(w, i, fx, fy, fz, pe);
     for (int s = 0; s < A.slots; ++s) {
       const std::int16_t* nb = nb0 + s * stride + i;
       std::int32_t j[8];
@@ -572,10 +584,7 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(con
       spring_lanes(dx, dy, dz, _mm256_sub_ps(vxj, vxi), _mm256_sub_ps(vyj, vyi), _mm256_sub_ps(vzj, vzi),
                    _mm256_loadu_ps(L0 + s * stride + i), k8, c8, qk8, one8, tiny8, fx, fy, fz, pe);
     }
-    _mm256_store_ps(w.fx + i, fx);
-    _mm256_store_ps(w.fy + i, fy);
-    _mm256_store_ps(w.fz + i, fz);
-    _mm256_store_ps(w.pe + i, pe);
+    store_sums8(w, i, fx, fy, fz, pe);
   }
   for (; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
