@@ -157,7 +157,8 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
 
   // --- state arrays ----------------------------------------------------------
-  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n);  // ax..az: World decides
+  // ax..az: World::add_body decides (only velocity Verlet and clay keep them).
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n);
   for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n);
   b.snapshot_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)

@@ -428,10 +428,10 @@ __attribute__((target("avx2"), always_inline)) inline __m256 spring_lanes(__m256
 }
 
 // The neighbour slots of eight consecutive vertices (P8 at the first one's
-// record, nb0 and L0 at its slot-0 entries): each neighbour fetched as two 16-byte loads from
-// the packed array and transposed to x/y/z lanes. Every arithmetic step is the
-// one pair_force() does, in the same order, without fused multiply-adds:
-// identical bits. Accumulates into f and pe, in slot order.
+// record, nb0 and L0 at its slot-0 entries): each neighbour fetched as two
+// 16-byte loads from the packed array and transposed to x/y/z lanes. Every
+// arithmetic step is the one pair_force() does, in the same order, without
+// fused multiply-adds: identical bits. Accumulates into f and pe, in slot order.
 // With Yield (spring model), also marks[s · kBlock/8] = the springs whose
 // length is past ±yield of their rest length: World::plastic_flow's exact test
 // (same length bits, same thresholds), from the length the force needs anyway.
@@ -542,17 +542,18 @@ __attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>&
   return write_acc<float>(A, begin, cnt, w);
 }
 
-// The spring model's neighbour loop for bodies without packed records (the
-// big ones): eight vertices at a time, each neighbour by hardware gather from
-// the arrays, its 16-bit offset widened and added to the vertex index. The
-// compiler's own loop (forces_portable) loads lane by lane and, with 16-bit
-// offsets, extracts each from a vector: ~18% more instructions. Same
-// operations as pair_force in the same order: identical bits.
-// a[j[0]], …, a[j[7]] by scalar loads: vgatherdps is slower on this CPU.
+// a[j[0]], …, a[j[7]] by scalar loads into lanes: vgatherdps took 1.3× the
+// time here, for fewer instructions.
 __attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float* __restrict a, const std::int32_t* j) {
   return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
 }
 
+// The spring model's neighbour loop for bodies without packed records (the
+// big ones): eight vertices at a time, each neighbour's six values loaded
+// lane by lane from the arrays at vertex + 16-bit offset. The compiler's own
+// loop (forces_portable) extracts each offset from a vector first: ~18% more
+// instructions. Same operations as pair_force in the same order: identical
+// bits.
 template <Velocity V>
 __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(const ForceArgs<float>& A,
                                                                               std::uint32_t begin, std::uint32_t cnt,
@@ -1133,7 +1134,8 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
       __m256 xj, yj, zj;
       if (P) {
         const float* p[8];
-        for (int l = 0; l < 8; ++l) p[l] = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(i + l) + nb[i + l]);
+        for (int l = 0; l < 8; ++l)
+          p[l] = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(i + l) + nb[i + l]);
         gather_lanes(p, 0, xj, yj, zj);
       } else {
         const __m256i j = _mm256_add_epi32(
