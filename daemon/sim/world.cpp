@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -81,6 +82,7 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   } else if (acc_free_.size() < b.pending_capacity) {
     acc_pool_.resize(3 * std::size_t{kBlock} * b.pending_capacity);
     acc_free_.resize(b.pending_capacity);
+    std::iota(acc_free_.begin(), acc_free_.end(), 0u);  // every slot free: each pass returns all it takes
     pending_.resize(b.pending_capacity);
   }
   const std::size_t total_blocks = changes_.size() + b.blocks;
@@ -869,8 +871,8 @@ void World<S>::step_body(std::uint32_t bi) {
         // and its accelerations wait in a pool slot meanwhile: a handful of
         // blocks, not ax..az for every vertex. The same operations on the same
         // inputs as forces-then-integrate over the whole body: the same bits.
-        std::uint32_t free_slots = 0, waiting = 0;
-        for (std::uint32_t k = 0; k < b.pending_capacity; ++k) acc_free_[free_slots++] = k;
+        auto free_slots = static_cast<std::uint32_t>(acc_free_.size());  // all of them, in any order
+        std::uint32_t waiting = 0;
         auto integrate_waiting = [&](const Pending& p) {
           const std::uint32_t blk = b.awake_list[p.q];
           use_slot(p.slot, b.begin_of(blk));
@@ -880,7 +882,7 @@ void World<S>::step_body(std::uint32_t bi) {
         };
         for (std::uint32_t q = 0; q < b.awake_count; ++q) {
           const std::uint32_t blk = b.awake_list[q];
-          const std::uint32_t slot = acc_free_[--free_slots];  // pending_capacity: never the last one
+          const std::uint32_t slot = acc_free_[--free_slots];  // ≥ pending_capacity slots: never runs out
           use_slot(slot, b.begin_of(blk));
           pe_scratch_[q] = kernel::forces(fa, m.model, vel, b.begin_of(blk), b.end_of(blk), b.overflow_begin[blk],
                                           b.overflow_begin[blk + 1]);
