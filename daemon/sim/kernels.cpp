@@ -404,6 +404,19 @@ __attribute__((target("avx2"), always_inline)) inline void store_sums8(BlockScra
   _mm256_store_ps(w.pe + i, pe);
 }
 
+// One spring per lane (linear model: d = u_j − u_i), pair_force's operations
+// in its order without fused multiply-adds (identical bits).
+__attribute__((target("avx2"), always_inline)) inline void linear_lanes(__m256 dx, __m256 dy, __m256 dz, __m256 dvx,
+                                                                        __m256 dvy, __m256 dvz, __m256 k8, __m256 c8,
+                                                                        __m256 qk8, __m256& fx, __m256& fy,
+                                                                        __m256& fz, __m256& pe) {
+  fx = _mm256_add_ps(fx, _mm256_add_ps(_mm256_mul_ps(k8, dx), _mm256_mul_ps(c8, dvx)));
+  fy = _mm256_add_ps(fy, _mm256_add_ps(_mm256_mul_ps(k8, dy), _mm256_mul_ps(c8, dvy)));
+  fz = _mm256_add_ps(fz, _mm256_add_ps(_mm256_mul_ps(k8, dz), _mm256_mul_ps(c8, dvz)));
+  pe = _mm256_add_ps(pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                                                          _mm256_mul_ps(dz, dz))));
+}
+
 // One spring per lane (spring model), pair_force's operations in its order
 // without fused multiply-adds (identical bits): adds the force on the lane's
 // vertex to f, its half energy to pe; returns the length.
@@ -451,12 +464,7 @@ __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
     const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
     const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
     if constexpr (M == ForceModel::linear) {
-      fx = _mm256_add_ps(fx, _mm256_add_ps(_mm256_mul_ps(k8, dx), _mm256_mul_ps(c8, dvx)));
-      fy = _mm256_add_ps(fy, _mm256_add_ps(_mm256_mul_ps(k8, dy), _mm256_mul_ps(c8, dvy)));
-      fz = _mm256_add_ps(fz, _mm256_add_ps(_mm256_mul_ps(k8, dz), _mm256_mul_ps(c8, dvz)));
-      pe = _mm256_add_ps(
-          pe, _mm256_mul_ps(qk8, _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-                                               _mm256_mul_ps(dz, dz))));
+      linear_lanes(dx, dy, dz, dvx, dvy, dvz, k8, c8, qk8, fx, fy, fz, pe);
     } else {
       const __m256 rest = _mm256_loadu_ps(L0 + s * stride);
       const __m256 len = spring_lanes(dx, dy, dz, dvx, dvy, dvz, rest, k8, c8, qk8, one8, tiny8, fx, fy, fz, pe);
@@ -548,13 +556,13 @@ __attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float
   return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
 }
 
-// The spring model's neighbour loop for bodies without packed records (the
-// big ones): eight vertices at a time, each neighbour's six values loaded
-// lane by lane from the arrays at vertex + 16-bit offset. The compiler's own
-// loop (forces_portable) extracts each offset from a vector first: ~18% more
-// instructions. Same operations as pair_force in the same order: identical
-// bits.
-template <Velocity V>
+// The neighbour loop for float bodies without packed records (the big ones):
+// eight vertices at a time, each neighbour's values loaded lane by lane from
+// the arrays at vertex + 16-bit offset (the linear model also its rest
+// position: it needs u = p − r). The compiler's own loop (forces_portable)
+// extracts each offset from a vector first: ~18% more instructions. Same
+// operations as pair_force in the same order: identical bits.
+template <ForceModel M, Velocity V>
 __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(const ForceArgs<float>& A,
                                                                               std::uint32_t begin, std::uint32_t cnt,
                                                                               BlockScratch<float>& w) {
@@ -564,11 +572,16 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(con
   const __m256 inv_dt8 = _mm256_set1_ps(A.inv_dt);
   const std::size_t stride = A.stride;
   const std::int16_t* __restrict nb0 = A.nbr + begin;
-  const float* __restrict L0 = A.rest_length + begin;
+  const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;  // linear: none
   std::uint32_t i = 0;
   for (; i + 8 <= cnt; i += 8) {
     const std::uint32_t v = begin + i;
-    const __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
+    if constexpr (M == ForceModel::linear) {
+      xi = _mm256_sub_ps(xi, _mm256_loadu_ps(A.rx + v));
+      yi = _mm256_sub_ps(yi, _mm256_loadu_ps(A.ry + v));
+      zi = _mm256_sub_ps(zi, _mm256_loadu_ps(A.rz + v));
+    }
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx, fy, fz, pe;
     load_sums8(w, i, fx, fy, fz, pe);
@@ -579,11 +592,17 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(con
       __m256 vxj = gather8(A.wx, j), vyj = gather8(A.wy, j), vzj = gather8(A.wz, j);
       if constexpr (V == Velocity::step)
         vxj = _mm256_mul_ps(vxj, inv_dt8), vyj = _mm256_mul_ps(vyj, inv_dt8), vzj = _mm256_mul_ps(vzj, inv_dt8);
-      const __m256 dx = _mm256_sub_ps(gather8(A.x, j), xi);
-      const __m256 dy = _mm256_sub_ps(gather8(A.y, j), yi);
-      const __m256 dz = _mm256_sub_ps(gather8(A.z, j), zi);
-      spring_lanes(dx, dy, dz, _mm256_sub_ps(vxj, vxi), _mm256_sub_ps(vyj, vyi), _mm256_sub_ps(vzj, vzi),
-                   _mm256_loadu_ps(L0 + s * stride + i), k8, c8, qk8, one8, tiny8, fx, fy, fz, pe);
+      __m256 xj = gather8(A.x, j), yj = gather8(A.y, j), zj = gather8(A.z, j);
+      if constexpr (M == ForceModel::linear)
+        xj = _mm256_sub_ps(xj, gather8(A.rx, j)), yj = _mm256_sub_ps(yj, gather8(A.ry, j)),
+        zj = _mm256_sub_ps(zj, gather8(A.rz, j));
+      const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
+      const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
+      if constexpr (M == ForceModel::linear)
+        linear_lanes(dx, dy, dz, dvx, dvy, dvz, k8, c8, qk8, fx, fy, fz, pe);
+      else
+        spring_lanes(dx, dy, dz, dvx, dvy, dvz, _mm256_loadu_ps(L0 + s * stride + i), k8, c8, qk8, one8, tiny8, fx, fy,
+                     fz, pe);
     }
     store_sums8(w, i, fx, fy, fz, pe);
   }
@@ -593,26 +612,44 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(con
       const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
       float ujx = A.wx[j], ujy = A.wy[j], ujz = A.wz[j];
       if constexpr (V == Velocity::step) ujx = ujx * A.inv_dt, ujy = ujy * A.inv_dt, ujz = ujz * A.inv_dt;
-      pair_force<float, ForceModel::spring>(A.x[j] - A.x[v], A.y[j] - A.y[v], A.z[j] - A.z[v], ujx - w.vx[i],
-                                            ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, L0[s * stride + i], k, c,
-                                            quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+      float dx, dy, dz, len = 0;
+      if constexpr (M == ForceModel::linear) {  // as slots_generic: u_j − u_i
+        dx = (A.x[j] - A.rx[j]) - (A.x[v] - A.rx[v]);
+        dy = (A.y[j] - A.ry[j]) - (A.y[v] - A.ry[v]);
+        dz = (A.z[j] - A.rz[j]) - (A.z[v] - A.rz[v]);
+      } else {
+        dx = A.x[j] - A.x[v], dy = A.y[j] - A.y[v], dz = A.z[j] - A.z[v];
+        len = L0[s * stride + i];
+      }
+      pair_force<float, M>(dx, dy, dz, ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, len, k, c, quarter_k,
+                           w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
     }
   }
 }
 
-// Forces for one block of a spring-model body without packed records.
-__attribute__((target("avx2"))) float forces_avx2_gather(const ForceArgs<float>& A, Velocity vel, std::uint32_t begin,
-                                                         std::uint32_t end, std::uint32_t ob, std::uint32_t oe) {
+template <ForceModel M, Velocity V>
+__attribute__((target("avx2"), always_inline)) inline void forces_gather_block(const ForceArgs<float>& A,
+                                                                                std::uint32_t begin, std::uint32_t cnt,
+                                                                                std::uint32_t ob, std::uint32_t oe,
+                                                                                BlockScratch<float>& w) {
+  init_block<float, V>(A, begin, cnt, w);
+  slots_avx2_gather<M, V>(A, begin, cnt, w);
+  overflow_block<float, M, V, false>(A, begin, ob, oe, w);
+}
+
+// Forces for one block of a float body without packed records.
+__attribute__((target("avx2"))) float forces_avx2_gather(const ForceArgs<float>& A, ForceModel model, Velocity vel,
+                                                         std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                                         std::uint32_t oe) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
-  if (vel == Velocity::step) {
-    init_block<float, Velocity::step>(A, begin, cnt, w);
-    slots_avx2_gather<Velocity::step>(A, begin, cnt, w);
-    overflow_block<float, ForceModel::spring, Velocity::step, false>(A, begin, ob, oe, w);
+  const bool bd = vel == Velocity::step;
+  if (model == ForceModel::spring) {
+    if (bd) forces_gather_block<ForceModel::spring, Velocity::step>(A, begin, cnt, ob, oe, w);
+    else forces_gather_block<ForceModel::spring, Velocity::stored>(A, begin, cnt, ob, oe, w);
   } else {
-    init_block<float, Velocity::stored>(A, begin, cnt, w);
-    slots_avx2_gather<Velocity::stored>(A, begin, cnt, w);
-    overflow_block<float, ForceModel::spring, Velocity::stored, false>(A, begin, ob, oe, w);
+    if (bd) forces_gather_block<ForceModel::linear, Velocity::step>(A, begin, cnt, ob, oe, w);
+    else forces_gather_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
   }
   return write_acc<float>(A, begin, cnt, w);
 }
@@ -651,7 +688,7 @@ float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uin
   const bool avx2 = g_has_avx2;
   if (avx2 && !g_portable.load(std::memory_order_relaxed)) {
     if (a.packed) return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
-    if (model == ForceModel::spring) return forces_avx2_gather(a, vel, begin, end, ob, oe);
+    return forces_avx2_gather(a, model, vel, begin, end, ob, oe);
   }
 #endif
   return forces_portable(a, model, vel, begin, end, ob, oe);

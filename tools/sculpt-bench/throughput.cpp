@@ -161,10 +161,9 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   j["substeps"] = world.substeps(0);
   j["clone"] = sim::kernel::active_clone();
   // Which force kernel ran: packed records, lane-by-lane AVX2 loads from the
-  // arrays (float spring model without records), or the compiler's clones.
-  const bool avx2 = sim::kernel::packed_path_active();  // AVX2 CPU, testing knob off
-  const bool gather = std::is_same_v<S, float> && world.body(0).material.model == sim::ForceModel::spring;
-  j["kernel"] = !world.body(0).packed[0].empty() && avx2 ? "avx2-packed" : avx2 && gather ? "avx2-gather" : "portable";
+  // arrays (float without records), or the compiler's clones (double, no AVX2).
+  const bool avx2 = sim::kernel::packed_path_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
+  j["kernel"] = !avx2 ? "portable" : world.body(0).packed[0].empty() ? "avx2-gather" : "avx2-packed";
   if (!fast.seconds.empty()) {
     const double per_step = median(fast.seconds) / o.steps;
     j["ms_per_step"] = per_step * 1e3;

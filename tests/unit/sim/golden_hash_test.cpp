@@ -63,12 +63,13 @@ std::uint64_t run_tools() {
 // grabs and pulls, and a 164-block body, so blocks wait across Morton seams.
 // With records `never`, the float spring model gathers neighbours from the
 // arrays (AVX2) instead of the packed records: the same bits again.
-std::uint64_t run_elastic(Integrator integrator, PackedRecords records) {
+std::uint64_t run_elastic(Integrator integrator, PackedRecords records, ForceModel model = ForceModel::spring) {
   SimSettings s;
   s.integrator = integrator;
   World<float> w(s, 2);
   Material m;
   m.gravity = true;  // every block awake from the start, sagging against its anchor
+  m.model = model;
   BodyOptions options;
   options.packed = records;
   w.add_body(make_icosphere(0.1f, 4), m, options);
@@ -97,6 +98,7 @@ TEST(Determinism, GoldenHashes) {
     for (PackedRecords records : {PackedRecords::by_size, PackedRecords::never}) {
       EXPECT_EQ(run_elastic(Integrator::position_verlet, records), 0xf157712c4cb4d81dull);
       EXPECT_EQ(run_elastic(Integrator::symplectic_euler, records), 0x2d08f97bbfdfd812ull);
+      EXPECT_EQ(run_elastic(Integrator::position_verlet, records, ForceModel::linear), 0x5dfe0bf79498f9d4ull);
     }
   }
   kernel::force_portable(false);
