@@ -154,7 +154,7 @@ struct Body {
   std::uint32_t begin_of(std::uint32_t b) const { return b * kernel::kBlock; }
   std::uint32_t end_of(std::uint32_t b) const { return std::min(n, (b + 1) * kernel::kBlock); }
   std::size_t bytes() const;  // everything this body owns
-  // Block blk's triangles as internal indices, in build order.
+  // Block blk's triangles as internal indices: the near ones in build order, then the far ones.
   template <class F>
   [[gnu::always_inline]] void for_each_triangle(std::uint32_t blk, F&& f) const {
     const std::uint32_t base = begin_of(blk);
