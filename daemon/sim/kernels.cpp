@@ -440,27 +440,68 @@ __attribute__((target("avx2"), always_inline)) inline __m256 spring_lanes(__m256
   return len;
 }
 
-// The neighbour slots of eight consecutive vertices (P8 at the first one's
-// record, nb0 and L0 at its slot-0 entries): each neighbour fetched as two
-// 16-byte loads from the packed array and transposed to x/y/z lanes. Every
-// arithmetic step is the one pair_force() does, in the same order, without
-// fused multiply-adds: identical bits. Accumulates into f and pe, in slot order.
+// a[j[0]], …, a[j[7]] by scalar loads into lanes: vgatherdps took 1.3× the
+// time here, for fewer instructions.
+__attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float* __restrict a, const std::int32_t* j) {
+  return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
+}
+
+// How accumulate_slots8 fetches the eight neighbours of one slot row (nb:
+// offsets from the group's first vertex) as what pair_force compares: the
+// position (linear model: u = p − r) and the velocity.
+// From the packed records: two 16-byte loads and a transpose per eight.
+struct FromRecords {
+  const float* P8;  // the group's first vertex's record
+  __attribute__((target("avx2"), always_inline)) void operator()(const std::int16_t* nb, __m256& xj, __m256& yj,
+                                                                 __m256& zj, __m256& vxj, __m256& vyj,
+                                                                 __m256& vzj) const {
+    const float* p[8];
+    for (int l = 0; l < 8; ++l) p[l] = P8 + 8 * static_cast<std::ptrdiff_t>(l + nb[l]);
+    gather_lanes(p, 0, xj, yj, zj);
+    gather_lanes(p, 4, vxj, vyj, vzj);
+  }
+};
+// From the arrays, lane by lane (bodies without records): the same values
+// the records would hold, by the same operations (w · 1/dt, p − r).
+template <ForceModel M, Velocity V>
+struct FromArrays {
+  const ForceArgs<float>* A;
+  std::uint32_t v;  // the group's first vertex
+  __attribute__((target("avx2"), always_inline)) void operator()(const std::int16_t* nb, __m256& xj, __m256& yj,
+                                                                 __m256& zj, __m256& vxj, __m256& vyj,
+                                                                 __m256& vzj) const {
+    std::int32_t j[8];
+    for (int l = 0; l < 8; ++l) j[l] = static_cast<std::int32_t>(v) + l + nb[l];
+    vxj = gather8(A->wx, j), vyj = gather8(A->wy, j), vzj = gather8(A->wz, j);
+    if constexpr (V == Velocity::step) {
+      const __m256 inv_dt8 = _mm256_set1_ps(A->inv_dt);
+      vxj = _mm256_mul_ps(vxj, inv_dt8), vyj = _mm256_mul_ps(vyj, inv_dt8), vzj = _mm256_mul_ps(vzj, inv_dt8);
+    }
+    xj = gather8(A->x, j), yj = gather8(A->y, j), zj = gather8(A->z, j);
+    if constexpr (M == ForceModel::linear) {
+      xj = _mm256_sub_ps(xj, gather8(A->rx, j));
+      yj = _mm256_sub_ps(yj, gather8(A->ry, j));
+      zj = _mm256_sub_ps(zj, gather8(A->rz, j));
+    }
+  }
+};
+
+// The neighbour slots of eight consecutive vertices (nb0 and L0 at the first
+// one's slot-0 entries), each row's neighbours from `fetch`. Every arithmetic
+// step is the one pair_force() does, in the same order, without fused
+// multiply-adds: identical bits. Accumulates into f and pe, in slot order.
 // With Yield (spring model), also marks[s · kBlock/8] = the springs whose
 // length is past ±yield of their rest length: World::plastic_flow's exact test
 // (same length bits, same thresholds), from the length the force needs anyway.
-template <ForceModel M, bool Yield = false>
+template <ForceModel M, bool Yield = false, class Fetch>
 __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
-    const float* __restrict P8, const std::int16_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
+    const Fetch& fetch, const std::int16_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
     int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
     __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8, __m256 down8,
     std::uint8_t* marks) {
   for (int s = 0; s < slots; ++s) {
-    const std::int16_t* nb = nb0 + s * stride;
-    const float* p[8];
-    for (int l = 0; l < 8; ++l) p[l] = P8 + 8 * static_cast<std::ptrdiff_t>(l + nb[l]);
     __m256 xj, yj, zj, vxj, vyj, vzj;
-    gather_lanes(p, 0, xj, yj, zj);
-    gather_lanes(p, 4, vxj, vyj, vzj);
+    fetch(nb0 + s * stride, xj, yj, zj, vxj, vyj, vzj);
     const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
     const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
     if constexpr (M == ForceModel::linear) {
@@ -477,14 +518,27 @@ __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
   }
 }
 
-// The spring model's neighbour loop with AVX2 intrinsics: 8 vertices at a time,
-// each neighbour fetched as two 16-byte loads from the packed array and
-// transposed to x/y/z lanes. Every arithmetic step is the one pair_force()
-// does, in the same order, without fused multiply-adds: identical bits.
+// Eight vertices' own positions as the neighbour loops compare them: p, or
+// for the linear model the displacement u = p − r (what its records hold).
 template <ForceModel M>
+__attribute__((target("avx2"), always_inline)) inline void own_position8(const ForceArgs<float>& A, std::uint32_t v,
+                                                                           __m256& x, __m256& y, __m256& z) {
+  x = _mm256_loadu_ps(A.x + v), y = _mm256_loadu_ps(A.y + v), z = _mm256_loadu_ps(A.z + v);
+  if constexpr (M == ForceModel::linear) {
+    x = _mm256_sub_ps(x, _mm256_loadu_ps(A.rx + v));
+    y = _mm256_sub_ps(y, _mm256_loadu_ps(A.ry + v));
+    z = _mm256_sub_ps(z, _mm256_loadu_ps(A.rz + v));
+  }
+}
+
+// The neighbour loop with AVX2 intrinsics, 8 vertices at a time: neighbours
+// from the packed records, or (Packed = false: bodies without them, the big
+// ones) lane by lane from the arrays at vertex + 16-bit offset, where the
+// compiler's own loop (forces_portable) extracts each offset from a vector
+// first (~18% more instructions). Identical bits either way.
+template <ForceModel M, Velocity V, bool Packed>
 __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const ForceArgs<float>& A, std::uint32_t begin,
                                                                        std::uint32_t cnt, BlockScratch<float>& w) {
-  const float* __restrict P = A.packed;
   const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
   const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(quarter_k);
   const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
@@ -496,160 +550,68 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
   std::uint32_t i = 0;
   for (; i + 8 <= cnt; i += 8) {
     const std::uint32_t v = begin + i;
-    __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
-    if constexpr (M == ForceModel::linear) {  // own displacement u = p − r (the packed records hold u)
-      xi = _mm256_sub_ps(xi, _mm256_loadu_ps(A.rx + v));
-      yi = _mm256_sub_ps(yi, _mm256_loadu_ps(A.ry + v));
-      zi = _mm256_sub_ps(zi, _mm256_loadu_ps(A.rz + v));
-    }
+    __m256 xi, yi, zi;
+    own_position8<M>(A, v, xi, yi, zi);
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx, fy, fz, pe;
     load_sums8(w, i, fx, fy, fz, pe);
-    accumulate_slots8<M>(P + 8 * static_cast<std::size_t>(v), nb0 + i, M == ForceModel::spring ? L0 + i : nullptr,
-                         stride, A.slots, k8, c8, qk8, one8, tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8,
-                         one8, nullptr);
+    using Fetch = std::conditional_t<Packed, FromRecords, FromArrays<M, V>>;
+    Fetch fetch;
+    if constexpr (Packed) fetch = {A.packed + 8 * static_cast<std::size_t>(v)};
+    else fetch = {&A, v};
+    accumulate_slots8<M>(fetch, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
+                         tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
     store_sums8(w, i, fx, fy, fz, pe);
   }
+  // The rest (a body's last block), one vertex at a time.
   for (; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
     for (int s = 0; s < A.slots; ++s) {
-      const float* pj = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(v) + nb0[s * stride + i]);
+      const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
+      float xj, yj, zj, vxj, vyj, vzj;
+      if constexpr (Packed) {
+        const float* pj = A.packed + 8 * static_cast<std::size_t>(j);
+        xj = pj[0], yj = pj[1], zj = pj[2], vxj = pj[4], vyj = pj[5], vzj = pj[6];
+      } else {
+        xj = A.x[j], yj = A.y[j], zj = A.z[j], vxj = A.wx[j], vyj = A.wy[j], vzj = A.wz[j];
+        if constexpr (V == Velocity::step) vxj = vxj * A.inv_dt, vyj = vyj * A.inv_dt, vzj = vzj * A.inv_dt;
+        if constexpr (M == ForceModel::linear) xj = xj - A.rx[j], yj = yj - A.ry[j], zj = zj - A.rz[j];
+      }
       float xi = A.x[v], yi = A.y[v], zi = A.z[v], len = 0;
       if constexpr (M == ForceModel::linear) xi = xi - A.rx[v], yi = yi - A.ry[v], zi = zi - A.rz[v];
       else len = L0[s * stride + i];
-      pair_force<float, M>(pj[0] - xi, pj[1] - yi, pj[2] - zi, pj[4] - w.vx[i], pj[5] - w.vy[i], pj[6] - w.vz[i], 0, 0,
-                           0, len, k, c, quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
+      pair_force<float, M>(xj - xi, yj - yi, zj - zi, vxj - w.vx[i], vyj - w.vy[i], vzj - w.vz[i], 0, 0, 0, len, k, c,
+                           quarter_k, w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
     }
   }
 }
 
-template <ForceModel M, Velocity V>
+// One block's forces on the AVX2 paths: neighbours from the packed records,
+// or (Packed = false) lane by lane from the arrays.
+template <ForceModel M, Velocity V, bool Packed = true>
 __attribute__((target("avx2"), always_inline)) inline void forces_avx2_block(const ForceArgs<float>& A,
                                                                               std::uint32_t begin, std::uint32_t cnt,
                                                                               std::uint32_t ob, std::uint32_t oe,
                                                                               BlockScratch<float>& w) {
   init_block<float, V>(A, begin, cnt, w);
-  slots_avx2<M>(A, begin, cnt, w);
-  overflow_block<float, M, V, true>(A, begin, ob, oe, w);
+  slots_avx2<M, V, Packed>(A, begin, cnt, w);
+  overflow_block<float, M, V, Packed>(A, begin, ob, oe, w);
 }
 
-// Forces for one block with neighbours gathered from the packed buffer.
-__attribute__((target("avx2"))) float forces_avx2_packed(const ForceArgs<float>& A, ForceModel model, Velocity vel,
-                                                         std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
-                                                         std::uint32_t oe) {
+// Forces for one block of a float body on an AVX2 CPU.
+template <bool Packed>
+__attribute__((target("avx2"))) float forces_avx2(const ForceArgs<float>& A, ForceModel model, Velocity vel,
+                                                  std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
+                                                  std::uint32_t oe) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
   const bool bd = vel == Velocity::step;
   if (model == ForceModel::spring) {
-    if (bd) forces_avx2_block<ForceModel::spring, Velocity::step>(A, begin, cnt, ob, oe, w);
-    else forces_avx2_block<ForceModel::spring, Velocity::stored>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::spring, Velocity::step, Packed>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::spring, Velocity::stored, Packed>(A, begin, cnt, ob, oe, w);
   } else {
-    if (bd) forces_avx2_block<ForceModel::linear, Velocity::step>(A, begin, cnt, ob, oe, w);
-    else forces_avx2_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
-  }
-  return write_acc<float>(A, begin, cnt, w);
-}
-
-// a[j[0]], …, a[j[7]] by scalar loads into lanes: vgatherdps took 1.3× the
-// time here, for fewer instructions.
-__attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float* __restrict a, const std::int32_t* j) {
-  return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
-}
-
-// The neighbour loop for float bodies without packed records (the big ones):
-// eight vertices at a time, each neighbour's values loaded lane by lane from
-// the arrays at vertex + 16-bit offset (the linear model also its rest
-// position: it needs u = p − r). The compiler's own loop (forces_portable)
-// extracts each offset from a vector first: ~18% more instructions. Same
-// operations as pair_force in the same order: identical bits.
-template <ForceModel M, Velocity V>
-__attribute__((target("avx2"), always_inline)) inline void slots_avx2_gather(const ForceArgs<float>& A,
-                                                                              std::uint32_t begin, std::uint32_t cnt,
-                                                                              BlockScratch<float>& w) {
-  const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
-  const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(quarter_k);
-  const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
-  const __m256 inv_dt8 = _mm256_set1_ps(A.inv_dt);
-  const std::size_t stride = A.stride;
-  const std::int16_t* __restrict nb0 = A.nbr + begin;
-  const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;  // linear: none
-  std::uint32_t i = 0;
-  for (; i + 8 <= cnt; i += 8) {
-    const std::uint32_t v = begin + i;
-    __m256 xi = _mm256_loadu_ps(A.x + v), yi = _mm256_loadu_ps(A.y + v), zi = _mm256_loadu_ps(A.z + v);
-    if constexpr (M == ForceModel::linear) {
-      xi = _mm256_sub_ps(xi, _mm256_loadu_ps(A.rx + v));
-      yi = _mm256_sub_ps(yi, _mm256_loadu_ps(A.ry + v));
-      zi = _mm256_sub_ps(zi, _mm256_loadu_ps(A.rz + v));
-    }
-    const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
-    __m256 fx, fy, fz, pe;
-    load_sums8(w, i, fx, fy, fz, pe);
-    for (int s = 0; s < A.slots; ++s) {
-      const std::int16_t* nb = nb0 + s * stride + i;
-      std::int32_t j[8];
-      for (int l = 0; l < 8; ++l) j[l] = static_cast<std::int32_t>(v) + l + nb[l];
-      __m256 vxj = gather8(A.wx, j), vyj = gather8(A.wy, j), vzj = gather8(A.wz, j);
-      if constexpr (V == Velocity::step)
-        vxj = _mm256_mul_ps(vxj, inv_dt8), vyj = _mm256_mul_ps(vyj, inv_dt8), vzj = _mm256_mul_ps(vzj, inv_dt8);
-      __m256 xj = gather8(A.x, j), yj = gather8(A.y, j), zj = gather8(A.z, j);
-      if constexpr (M == ForceModel::linear)
-        xj = _mm256_sub_ps(xj, gather8(A.rx, j)), yj = _mm256_sub_ps(yj, gather8(A.ry, j)),
-        zj = _mm256_sub_ps(zj, gather8(A.rz, j));
-      const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);
-      const __m256 dvx = _mm256_sub_ps(vxj, vxi), dvy = _mm256_sub_ps(vyj, vyi), dvz = _mm256_sub_ps(vzj, vzi);
-      if constexpr (M == ForceModel::linear)
-        linear_lanes(dx, dy, dz, dvx, dvy, dvz, k8, c8, qk8, fx, fy, fz, pe);
-      else
-        spring_lanes(dx, dy, dz, dvx, dvy, dvz, _mm256_loadu_ps(L0 + s * stride + i), k8, c8, qk8, one8, tiny8, fx, fy,
-                     fz, pe);
-    }
-    store_sums8(w, i, fx, fy, fz, pe);
-  }
-  for (; i < cnt; ++i) {
-    const std::uint32_t v = begin + i;
-    for (int s = 0; s < A.slots; ++s) {
-      const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
-      float ujx = A.wx[j], ujy = A.wy[j], ujz = A.wz[j];
-      if constexpr (V == Velocity::step) ujx = ujx * A.inv_dt, ujy = ujy * A.inv_dt, ujz = ujz * A.inv_dt;
-      float dx, dy, dz, len = 0;
-      if constexpr (M == ForceModel::linear) {  // as slots_generic: u_j − u_i
-        dx = (A.x[j] - A.rx[j]) - (A.x[v] - A.rx[v]);
-        dy = (A.y[j] - A.ry[j]) - (A.y[v] - A.ry[v]);
-        dz = (A.z[j] - A.rz[j]) - (A.z[v] - A.rz[v]);
-      } else {
-        dx = A.x[j] - A.x[v], dy = A.y[j] - A.y[v], dz = A.z[j] - A.z[v];
-        len = L0[s * stride + i];
-      }
-      pair_force<float, M>(dx, dy, dz, ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, len, k, c, quarter_k,
-                           w.fx[i], w.fy[i], w.fz[i], w.pe[i]);
-    }
-  }
-}
-
-template <ForceModel M, Velocity V>
-__attribute__((target("avx2"), always_inline)) inline void forces_gather_block(const ForceArgs<float>& A,
-                                                                                std::uint32_t begin, std::uint32_t cnt,
-                                                                                std::uint32_t ob, std::uint32_t oe,
-                                                                                BlockScratch<float>& w) {
-  init_block<float, V>(A, begin, cnt, w);
-  slots_avx2_gather<M, V>(A, begin, cnt, w);
-  overflow_block<float, M, V, false>(A, begin, ob, oe, w);
-}
-
-// Forces for one block of a float body without packed records.
-__attribute__((target("avx2"))) float forces_avx2_gather(const ForceArgs<float>& A, ForceModel model, Velocity vel,
-                                                         std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
-                                                         std::uint32_t oe) {
-  BlockScratch<float> w;
-  const std::uint32_t cnt = end - begin;
-  const bool bd = vel == Velocity::step;
-  if (model == ForceModel::spring) {
-    if (bd) forces_gather_block<ForceModel::spring, Velocity::step>(A, begin, cnt, ob, oe, w);
-    else forces_gather_block<ForceModel::spring, Velocity::stored>(A, begin, cnt, ob, oe, w);
-  } else {
-    if (bd) forces_gather_block<ForceModel::linear, Velocity::step>(A, begin, cnt, ob, oe, w);
-    else forces_gather_block<ForceModel::linear, Velocity::stored>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::linear, Velocity::step, Packed>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::linear, Velocity::stored, Packed>(A, begin, cnt, ob, oe, w);
   }
   return write_acc<float>(A, begin, cnt, w);
 }
@@ -687,8 +649,8 @@ float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uin
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   const bool avx2 = g_has_avx2;
   if (avx2 && !g_portable.load(std::memory_order_relaxed)) {
-    if (a.packed) return forces_avx2_packed(a, model, vel, begin, end, ob, oe);
-    return forces_avx2_gather(a, model, vel, begin, end, ob, oe);
+    return a.packed ? forces_avx2<true>(a, model, vel, begin, end, ob, oe)
+                    : forces_avx2<false>(a, model, vel, begin, end, ob, oe);
   }
 #endif
   return forces_portable(a, model, vel, begin, end, ob, oe);
@@ -998,7 +960,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
     }
     __m256 xi = x, yi = y, zi = z;
     if constexpr (M == ForceModel::linear) xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
-    accumulate_slots8<M, Yield>(P + 8 * static_cast<std::size_t>(begin + i), nb0 + i,
+    accumulate_slots8<M, Yield>(FromRecords{P + 8 * static_cast<std::size_t>(begin + i)}, nb0 + i,
                                 M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
                                 one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe, up8, down8,
                                 marks ? marks + kBlock / 8 + i / 8 : nullptr);
