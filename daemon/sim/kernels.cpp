@@ -1089,7 +1089,8 @@ bool yield_candidates_scalar(const ForceArgs<S>& a, S yield, S anchor_limit, boo
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
 // Eight vertices at a time; tails go scalar. Neighbours come from the packed
 // records when there are any (two 16-byte loads and a transpose per eight, as
-// in the force kernel: hardware gathers are slow here), else by gather.
+// in the force kernel), else lane by lane (gather8): vgatherdps made the whole
+// clay step on the 164k sphere ~10% slower (BM_StepClaySculpting/7/0).
 __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float>& a, float yield,
                                                            float anchor_limit, bool springs, std::uint32_t begin,
                                                            std::uint32_t end, std::uint8_t* mask_out) {
@@ -1137,10 +1138,9 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
           p[l] = P + 8 * static_cast<std::size_t>(static_cast<std::int32_t>(i + l) + nb[i + l]);
         gather_lanes(p, 0, xj, yj, zj);
       } else {
-        const __m256i j = _mm256_add_epi32(
-            _mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(nb + i))),
-            _mm256_add_epi32(_mm256_set1_epi32(static_cast<int>(i)), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
-        xj = _mm256_i32gather_ps(X, j, 4), yj = _mm256_i32gather_ps(Y, j, 4), zj = _mm256_i32gather_ps(Z, j, 4);
+        std::int32_t j[8];
+        for (int l = 0; l < 8; ++l) j[l] = static_cast<std::int32_t>(i) + l + nb[i + l];
+        xj = gather8(X, j), yj = gather8(Y, j), zj = gather8(Z, j);
       }
       const __m256 dx = _mm256_sub_ps(xj, _mm256_loadu_ps(X + i));
       const __m256 dy = _mm256_sub_ps(yj, _mm256_loadu_ps(Y + i));

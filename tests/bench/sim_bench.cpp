@@ -106,7 +106,7 @@ void BM_StepClaySculpting(benchmark::State& state) {
   kernel::force_block_pieces(false);
   state.SetLabel(state.range(1) == 1 ? "portable" : state.range(1) == 2 ? "pieces" : "auto");
 }
-BENCHMARK(BM_StepClaySculpting)->Args({6, 0})->Args({6, 2})->Args({6, 1})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepClaySculpting)->Args({7, 0})->Args({6, 0})->Args({6, 2})->Args({6, 1})->Unit(benchmark::kMicrosecond);
 
 // Nothing touches the scene: everything sleeps.
 void BM_StepIdle(benchmark::State& state) {
