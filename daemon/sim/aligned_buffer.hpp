@@ -1,5 +1,6 @@
 // A fixed-size, 64-byte aligned array: one cache line per SIMD load, sized
 // once at setup and never reallocated (the real-time step must not allocate).
+// Its storage comes from the heap, or from a PageArena that outlives it.
 #pragma once
 
 #include <algorithm>
@@ -8,6 +9,8 @@
 #include <new>
 #include <span>
 #include <type_traits>
+
+#include "sim/page_arena.hpp"
 
 namespace sculpt::sim {
 
@@ -23,10 +26,14 @@ class AlignedBuffer {
   AlignedBuffer(AlignedBuffer&&) noexcept = default;
   AlignedBuffer& operator=(AlignedBuffer&&) noexcept = default;
 
-  void resize(std::size_t n, T fill = T{}) {
+  // From `arena` when given and it has room, else from the heap.
+  void resize(std::size_t n, T fill = T{}, PageArena* arena = nullptr) {
     // Round the allocation up to whole cache lines so vector tails stay inside it.
     const std::size_t bytes = ((n * sizeof(T) + kAlignment - 1) / kAlignment) * kAlignment;
-    data_.reset(bytes ? static_cast<T*>(::operator new(bytes, std::align_val_t{kAlignment})) : nullptr);
+    void* p = bytes && arena ? arena->allocate(bytes, kAlignment) : nullptr;
+    const bool heap = !p;
+    if (heap && bytes) p = ::operator new(bytes, std::align_val_t{kAlignment});
+    data_ = std::unique_ptr<T[], Free>(static_cast<T*>(p), Free{heap});
     size_ = n;
     std::fill_n(data_.get(), n, fill);
   }
@@ -43,7 +50,10 @@ class AlignedBuffer {
 
  private:
   struct Free {
-    void operator()(T* p) const { ::operator delete(p, std::align_val_t{kAlignment}); }
+    bool heap = true;  // arena storage goes with the arena
+    void operator()(T* p) const {
+      if (heap) ::operator delete(p, std::align_val_t{kAlignment});
+    }
   };
   std::unique_ptr<T[], Free> data_;
   std::size_t size_ = 0;

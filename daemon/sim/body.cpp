@@ -128,6 +128,11 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   const std::uint32_t n = static_cast<std::uint32_t>(n_in);
   b.n = n;
   b.blocks = (n + kBlock - 1) / kBlock;
+  // Address space for the most the arrays below can take (ELL at most 16
+  // wide, ax..az, clay copies, packed records; 64-byte padding each); only
+  // what they use is ever touched, and World::add_body trims the rest.
+  if (n >= kArenaMinVertices) b.arena = PageArena(std::size_t{n} * (63 * sizeof(S) + 38) + 64 * 64);
+  PageArena* arena = n >= kArenaMinVertices ? &b.arena : nullptr;
 
   // --- Morton order of the rest shape ---------------------------------------
   std::array<double, 3> lo{}, hi{};
@@ -158,8 +163,8 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
 
   // --- state arrays ----------------------------------------------------------
   // ax..az: World::add_body decides (only velocity Verlet and clay keep them).
-  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n);
-  for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n);
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n, S(0), arena);
+  for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n, 0, arena);
   b.snapshot_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
     const Vec3f& p = mesh.positions[b.to_original[i]];
@@ -208,8 +213,8 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     const S dx = b.rx[j] - b.rx[i], dy = b.ry[j] - b.ry[i], dz = b.rz[j] - b.rz[i];
     return std::sqrt(dx * dx + dy * dy + dz * dz);
   };
-  b.nbr.resize(static_cast<std::size_t>(b.slots) * n);
-  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n);
+  b.nbr.resize(static_cast<std::size_t>(b.slots) * n, 0, arena);
+  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n, S(0), arena);
   b.overflow_begin.assign(b.blocks + 1, 0);
   // Each row in sorted order: the near neighbours fill the slots, the rest
   // (past the width, or farther than an int16 offset) go to the overflow list;
@@ -324,10 +329,10 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   std::partial_sum(b.pinned_begin.begin(), b.pinned_begin.end(), b.pinned_begin.begin());
 
   if (b.plastic) {
-    for (auto* buf : {&b.srx, &b.sry, &b.srz}) buf->resize(n);
+    for (auto* buf : {&b.srx, &b.sry, &b.srz}) buf->resize(n, S(0), arena);
     for (std::uint32_t i = 0; i < n; ++i) b.srx[i] = b.rx[i], b.sry[i] = b.ry[i], b.srz[i] = b.rz[i];
     if (spring_model) {
-      b.slen.resize(b.rest_length.size());
+      b.slen.resize(b.rest_length.size(), S(0), arena);
       std::copy_n(b.rest_length.data(), b.rest_length.size(), b.slen.data());
     }
   }
@@ -337,7 +342,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
                       (options.packed == PackedRecords::by_size && n <= kPackedMaxVertices);
     if (want) {
       for (auto& buf : b.packed) {
-        buf.resize(8 * static_cast<std::size_t>(n));  // zeros: at rest the velocity and (linear) u are 0
+        buf.resize(8 * static_cast<std::size_t>(n), 0.0f, arena);  // zeros: at rest the velocity and (linear) u are 0
         if (spring_model)
           for (std::uint32_t i = 0; i < n; ++i) buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
       }

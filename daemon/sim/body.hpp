@@ -89,6 +89,9 @@ struct Body {
   std::vector<std::uint32_t> to_original;  // internal → original vertex index
   std::vector<std::uint32_t> to_internal;  // original → internal
 
+  // Big bodies (kArenaMinVertices and up) keep their per-vertex arrays below
+  // in one huge-page region (see PageArena); declared first, it goes last.
+  PageArena arena;
   AlignedBuffer<S> x, y, z;     // positions
   AlignedBuffer<S> wx, wy, wz;  // last steps x − x_prev (position Verlet) or velocities
   AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
@@ -167,6 +170,10 @@ struct Body {
   bool save_positions(std::uint32_t blk);
   std::array<S, 3> saved_position(std::uint32_t i) const;
 };
+
+// From this size a body's per-vertex arrays (~3 MB and up) live in a huge-page
+// arena: small ones fit the TLB's reach anyway, and would round up to 2 MiB.
+inline constexpr std::uint32_t kArenaMinVertices = 32768;
 
 // Builds the network. Throws std::invalid_argument naming the bad input
 // (out-of-range triangle index, non-finite position, bad material...).

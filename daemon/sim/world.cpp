@@ -78,13 +78,14 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   // every vertex. The rest integrate each block as soon as no later block
   // reads it, from a pool slot.
   if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
-    for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n);
+    for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), b.arena.capacity() ? &b.arena : nullptr);
   } else if (acc_free_.size() < b.pending_capacity) {
     acc_pool_.resize(3 * std::size_t{kBlock} * b.pending_capacity);
     acc_free_.resize(b.pending_capacity);
     std::iota(acc_free_.begin(), acc_free_.end(), 0u);  // every slot free: each pass returns all it takes
     pending_.resize(b.pending_capacity);
   }
+  b.arena.trim();  // every array is in place
   const std::size_t total_blocks = changes_.size() + b.blocks;
   bodies_.push_back(std::move(b));
   base_substeps_.push_back(choice.substeps);

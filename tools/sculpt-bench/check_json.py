@@ -43,7 +43,7 @@ for args in cases:
     finite(d, required, args)
     if "--impl" not in args:
         for k in ["baseline", "speedup_vs_baseline", "idle", "sculpting_with_sleep", "peak_memory_bytes",
-                  "peak_memory_bytes_per_vertex", "bytes_per_vertex"]:
+                  "peak_memory_bytes_per_vertex", "bytes_per_vertex", "huge_page_bytes"]:
             assert k in d, f"{args}: missing {k}"
     assert d["vertices"] > 0 and d["springs"] > 0 and d["steps"] == 5
 

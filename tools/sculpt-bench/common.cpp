@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <stdexcept>
 
 #include "scene/mesh_import.hpp"
@@ -52,6 +53,17 @@ long peak_rss_bytes() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss * 1024L;
+}
+
+long anon_huge_page_bytes() {
+  std::ifstream in("/proc/self/smaps_rollup");
+  std::string key;
+  long kib = 0;
+  while (in >> key) {
+    if (key == "AnonHugePages:" && in >> kib) return kib * 1024L;
+    in.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+  }
+  return -1;
 }
 
 std::vector<double> parse_list(const std::string& option, const std::string& text) {

@@ -20,6 +20,9 @@ sim::TriangleMesh load_mesh_spec(const std::string& spec);
 
 double median(std::vector<double> v);
 long peak_rss_bytes();
+// This process's memory now in transparent huge pages (AnonHugePages of
+// /proc/self/smaps_rollup), or -1 where the kernel does not say.
+long anon_huge_page_bytes();
 
 // Comma-separated numbers ("0.004,0.002"); names the option on bad input.
 std::vector<double> parse_list(const std::string& option, const std::string& text);

@@ -171,6 +171,7 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
     j["blowups"] = world.stats().blowups_total;
     j["memory_bytes"] = world.bytes();
     j["bytes_per_vertex"] = world.bytes() / n;
+    j["huge_page_bytes"] = anon_huge_page_bytes();  // with the fast world alive: its arena, if THP backs it
     const double sculpt_ms = median(sculpt_s) / o.steps * 1e3, idle_ms = median(idle_s) / o.steps * 1e3;
     j["sculpting_with_sleep"] = {{"ms_per_step", sculpt_ms},
                                  {"awake_fraction", sculpt_vs / (n * world.substeps(0) * o.steps * o.repeats)}};
@@ -250,7 +251,7 @@ int throughput(const Options& o) {
                         {"substeps", fast["substeps"]}};
   if (o.impl != "baseline") {
     for (const char* k : {"ns_per_vertex_step", "ms_per_step", "memory_bytes", "bytes_per_vertex", "clone", "kernel", "blowups",
-                          "sculpting_with_sleep", "idle"})
+                          "huge_page_bytes", "sculpting_with_sleep", "idle"})
       out[k] = fast[k];
   }
   if (baseline) {

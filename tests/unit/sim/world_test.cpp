@@ -513,6 +513,57 @@ TEST(Layout, BlocksWaitOnlyForTheirLastReader) {
     }
 }
 
+// The arena hands out aligned, disjoint pieces until it is full; trimming
+// keeps what was handed out; a move takes the memory along.
+TEST(PageArena, AlignedDisjointBoundedAndMovable) {
+  PageArena a(std::size_t{1} << 20);
+  ASSERT_GE(a.capacity(), std::size_t{1} << 20);
+  auto* p = static_cast<char*>(a.allocate(1000, 64));
+  auto* q = static_cast<char*>(a.allocate(3000, 256));
+  ASSERT_NE(p, nullptr);
+  ASSERT_NE(q, nullptr);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(p) % PageArena::kHugePage, 0u) << "starts on a huge page";
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(q) % 256, 0u);
+  EXPECT_GE(q, p + 1000);
+  EXPECT_EQ(a.allocate(a.capacity(), 64), nullptr) << "past the end";
+  std::fill_n(p, 1000, 'p');
+  std::fill_n(q, 3000, 'q');
+  a.trim();
+  EXPECT_EQ(a.capacity(), 4096u) << "trimmed to the used small pages";
+  EXPECT_EQ(a.allocate(4096, 64), nullptr);
+  PageArena b = std::move(a);
+  EXPECT_EQ(a.capacity(), 0u);
+  EXPECT_TRUE(b.contains(p) && b.contains(q + 2999));
+  EXPECT_EQ(std::count(p, p + 1000, 'p') + std::count(q, q + 3000, 'q'), 4000);
+  EXPECT_EQ(PageArena(0).allocate(1, 64), nullptr);
+}
+
+// Big bodies keep their per-vertex arrays in one huge-page arena (fewer TLB
+// misses for the neighbour loads); small ones stay on the heap.
+TEST(Layout, BigBodiesKeepTheirArraysInOneArena) {
+  for (bool clay : {false, true}) {
+    World<float> w(SimSettings{}, 1);
+    Material m;
+    m.plastic = clay;
+    w.add_body(make_icosphere(0.1f, 6), m);  // 40 962 vertices, packed records
+    w.add_body(make_icosphere(0.1f, 3), m);  // 642
+    const Body<float>& big = w.body(0);
+    ASSERT_GE(big.n, kArenaMinVertices);
+    for (const void* p : {static_cast<const void*>(big.x.data()), static_cast<const void*>(big.wz.data()),
+                          static_cast<const void*>(big.rz.data()), static_cast<const void*>(big.sz.data()),
+                          static_cast<const void*>(big.nbr.data()), static_cast<const void*>(big.rest_length.data()),
+                          static_cast<const void*>(big.packed[1].data())})
+      EXPECT_TRUE(big.arena.contains(p)) << "clay " << clay;
+    if (clay) {
+      EXPECT_TRUE(big.arena.contains(big.az.data()));
+      EXPECT_TRUE(big.arena.contains(big.slen.data()));
+    }
+    EXPECT_EQ(big.arena.capacity(), (big.arena.used() + 4095) / 4096 * 4096) << "trimmed after add_body";
+    EXPECT_EQ(w.body(1).arena.capacity(), 0u);
+    EXPECT_FALSE(w.body(1).arena.contains(w.body(1).x.data()));
+  }
+}
+
 // Neighbours are 16-bit offsets: a spring reaching farther in the Morton
 // order is kept whole in the overflow list. Each directed spring is in exactly
 // one of the two.
