@@ -3,8 +3,11 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "sim/baseline.hpp"
+#include "sim/body.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
 #include "sim/world.hpp"
@@ -55,6 +58,51 @@ BENCHMARK_TEMPLATE(BM_StepAllAwake, float)
     ->Args({7, 1})  // 164k: the AVX2 gather kernel (auto) against the compiler's loop (portable)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_StepAllAwake, double)->Args({5, 0})->Unit(benchmark::kMillisecond);
+
+// Where a big mesh's force pass goes: the kernel over every block once, each
+// neighbour load meeting the memory as a step does (range(2) = 0), against one
+// block over and over, everything in L1 (1): the difference is what memory
+// costs, the rest the kernel's own work. The same vertex count per iteration.
+// range(0): icosphere subdivisions; range(1): 1 = from packed records.
+void BM_ForcePass(benchmark::State& state) {
+  BodyOptions options;
+  options.packed = state.range(1) ? PackedRecords::always : PackedRecords::never;
+  Body<float> b = make_body<float>(make_icosphere(0.1f, static_cast<int>(state.range(0))), Material{}, options, 1);
+  std::vector<float> ax(b.n), ay(b.n), az(b.n);
+  for (std::uint32_t i = 0; i < b.n; ++i)  // some motion, so the dampers have work
+    b.wx[i] = 1e-6f * std::sin(0.1f * i), b.wy[i] = 1e-6f * std::cos(0.3f * i), b.wz[i] = 1e-6f * std::sin(0.7f * i);
+  kernel::ForceArgs<float> fa{};
+  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
+  fa.wx = b.wx.data(), fa.wy = b.wy.data(), fa.wz = b.wz.data();
+  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
+  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
+  fa.overflow = b.overflow.data();
+  fa.stiffness = 200, fa.damping = 0.05f, fa.anchor = 2, fa.anchor_damping = 0.05f, fa.inv_mass = 100, fa.inv_dt = 1000;
+  fa.ax = ax.data(), fa.ay = ay.data(), fa.az = az.data();
+  if (state.range(1)) {
+    kernel::pack(fa, ForceModel::spring, kernel::Velocity::step, b.packed[0].data(), 0, b.n);
+    fa.packed = b.packed[0].data();
+  }
+  const std::uint32_t hot = b.blocks / 2;
+  float sink = 0;
+  for (auto _ : state) {
+    for (std::uint32_t k = 0; k < b.blocks; ++k) {
+      const std::uint32_t blk = state.range(2) ? hot : k;
+      sink += kernel::forces(fa, ForceModel::spring, kernel::Velocity::step, b.begin_of(blk), b.end_of(blk),
+                             b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+    }
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["ns_per_vertex"] = benchmark::Counter(static_cast<double>(state.iterations()) * b.blocks * kernel::kBlock,
+                                                       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.SetLabel(std::string(state.range(1) ? "records" : "arrays") + (state.range(2) ? ", one block (L1)" : ", sweep"));
+}
+BENCHMARK(BM_ForcePass)
+    ->Args({7, 0, 0})
+    ->Args({7, 0, 1})
+    ->Args({7, 1, 0})
+    ->Args({7, 1, 1})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_StepBaseline(benchmark::State& state) {
   const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
