@@ -18,7 +18,7 @@ class PageArena {
 
   PageArena() = default;
   // Reserves `capacity` bytes of address space (rounded up to whole huge
-  // pages; physical memory only as pages are touched) and asks for huge pages.
+  // pages; memory only as allocations open and touch it) and asks for huge pages.
   // On failure the arena stays empty and allocate() always returns null.
   explicit PageArena(std::size_t capacity);
   PageArena(PageArena&& o) noexcept { swap(o); }
@@ -48,9 +48,10 @@ class PageArena {
   void swap(PageArena& o) noexcept;
   char* base_ = nullptr;       // huge-page aligned
   std::size_t capacity_ = 0;   // usable bytes from base_
-  char* mapping_ = nullptr;    // what mmap returned (base_ rounded down)
+  char* mapping_ = nullptr;    // what is mapped: base_ onwards
   std::size_t mapped_ = 0;
   std::size_t used_ = 0;
+  std::size_t open_ = 0;       // bytes from base_ made accessible so far
   bool huge_ = false;
 };
 
