@@ -52,6 +52,19 @@ constexpr std::uint32_t kPackedMaxVertices = 65536;
 }  // namespace
 
 template <class S>
+kernel::ForceArgs<S> Body<S>::network_args() const {
+  kernel::ForceArgs<S> fa{};
+  fa.x = x.data(), fa.y = y.data(), fa.z = z.data();
+  fa.wx = wx.data(), fa.wy = wy.data(), fa.wz = wz.data();
+  fa.rx = rx.data(), fa.ry = ry.data(), fa.rz = rz.data();
+  fa.nbr = nbr.data(), fa.rest_length = rest_length.data(), fa.stride = n, fa.slots = slots;
+  fa.overflow = overflow.data();
+  if constexpr (std::is_same_v<S, float>)
+    if (!packed[0].empty()) fa.packed = packed[packed_cur].data();
+  return fa;
+}
+
+template <class S>
 std::size_t Body<S>::bytes() const {
   std::size_t b = sizeof(*this);
   for (const auto* buf : {&x, &y, &z, &wx, &wy, &wz, &rx, &ry, &rz, &ax, &ay, &az, &srx, &sry, &srz, &slen, &rest_length,

@@ -165,6 +165,10 @@ struct Body {
       f(Triangle{base + triangles[t].v[0], base + triangles[t].v[1], base + triangles[t].v[2]});
     for (std::uint32_t t = far_triangle_begin[blk]; t < far_triangle_begin[blk + 1]; ++t) f(far_triangles[t]);
   }
+  // The arrays the kernels read: state, rest shape, springs and the current
+  // packed records (float bodies that have them). Material constants and
+  // outputs are the caller's.
+  kernel::ForceArgs<S> network_args() const;
   // The guard's snapshot: save block blk's positions (false, keeping the
   // older snapshot, if any is not finite); the saved position of vertex i.
   bool save_positions(std::uint32_t blk);

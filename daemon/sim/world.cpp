@@ -541,22 +541,6 @@ void World<S>::restore(Body<S>& b) {
   update_box(b);
 }
 
-// The arrays of a body the kernels read: state, rest shape, springs and the
-// current packed records (float bodies that have them). Material constants
-// and outputs are the caller's.
-template <class S>
-kernel::ForceArgs<S> World<S>::network_args(Body<S>& b) {
-  kernel::ForceArgs<S> fa{};
-  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
-  fa.wx = b.wx.data(), fa.wy = b.wy.data(), fa.wz = b.wz.data();
-  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
-  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
-  fa.overflow = b.overflow.data();
-  if constexpr (std::is_same_v<S, float>)
-    if (!b.packed[0].empty()) fa.packed = b.packed[b.packed_cur].data();
-  return fa;
-}
-
 template <class S>
 S World<S>::anchor_limit(const Body<S>& b) {
   // The anchor's rest position follows the vertex once it is more than
@@ -575,7 +559,7 @@ std::size_t World<S>::yield_mask_bytes(const Body<S>& b) {
 template <class S>
 void World<S>::plastic_flow(Body<S>& b, std::uint32_t blk, std::uint8_t* mask) {
   const bool springs = b.material.model == ForceModel::spring;
-  kernel::ForceArgs<S> fa = network_args(b);
+  kernel::ForceArgs<S> fa = b.network_args();
   // The current packed records match x, y, z here (the step and every push keep them so).
   if (!springs) fa.packed = nullptr;
   if (kernel::yield_candidates(fa, static_cast<S>(b.material.yield_strain), anchor_limit(b), springs, b.begin_of(blk),
@@ -686,7 +670,7 @@ void World<S>::step_body(std::uint32_t bi) {
     s.dirty = true;
   }
 
-  kernel::ForceArgs<S> fa = network_args(b);
+  kernel::ForceArgs<S> fa = b.network_args();
   fa.stiffness = static_cast<S>(m.stiffness);
   fa.damping = static_cast<S>(m.damping);
   fa.anchor = static_cast<S>(m.anchor);

@@ -112,7 +112,6 @@ class World {
   void wake(Body<S>& b, std::uint32_t blk);
   void sleep(Body<S>& b, std::uint32_t blk);
   void refit(Body<S>& b, std::uint32_t blk);
-  static kernel::ForceArgs<S> network_args(Body<S>& b);
   static S anchor_limit(const Body<S>& b);
   static std::size_t yield_mask_bytes(const Body<S>& b);
   void plastic_flow(Body<S>& b, std::uint32_t blk, std::uint8_t* mask);

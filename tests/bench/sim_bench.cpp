@@ -71,12 +71,8 @@ void BM_ForcePass(benchmark::State& state) {
   std::vector<float> ax(b.n), ay(b.n), az(b.n);
   for (std::uint32_t i = 0; i < b.n; ++i)  // some motion, so the dampers have work
     b.wx[i] = 1e-6f * std::sin(0.1f * i), b.wy[i] = 1e-6f * std::cos(0.3f * i), b.wz[i] = 1e-6f * std::sin(0.7f * i);
-  kernel::ForceArgs<float> fa{};
-  fa.x = b.x.data(), fa.y = b.y.data(), fa.z = b.z.data();
-  fa.wx = b.wx.data(), fa.wy = b.wy.data(), fa.wz = b.wz.data();
-  fa.rx = b.rx.data(), fa.ry = b.ry.data(), fa.rz = b.rz.data();
-  fa.nbr = b.nbr.data(), fa.rest_length = b.rest_length.data(), fa.stride = b.n, fa.slots = b.slots;
-  fa.overflow = b.overflow.data();
+  kernel::ForceArgs<float> fa = b.network_args();
+  fa.packed = nullptr;  // set below, once packed
   fa.stiffness = 200, fa.damping = 0.05f, fa.anchor = 2, fa.anchor_damping = 0.05f, fa.inv_mass = 100, fa.inv_dt = 1000;
   fa.ax = ax.data(), fa.ay = ay.data(), fa.az = az.data();
   if (state.range(1)) {
