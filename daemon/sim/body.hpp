@@ -90,7 +90,7 @@ struct Body {
   std::vector<std::uint32_t> to_internal;  // original → internal
 
   // Big bodies (kArenaMinVertices and up) keep their per-vertex arrays below
-  // in one huge-page region (see PageArena); declared first, it goes last.
+  // in one huge-page region (see PageArena); declared before them, it outlives them.
   PageArena arena;
   AlignedBuffer<S> x, y, z;     // positions
   AlignedBuffer<S> wx, wy, wz;  // last steps x − x_prev (position Verlet) or velocities
