@@ -23,9 +23,8 @@ PageArena::PageArena(std::size_t capacity) {
   ::munmap(first + head + size, kHugePage - head);  // head == 0: the whole spare page
   mapping_ = base_ = first + head;
   mapped_ = capacity_ = size;
-#ifdef MADV_HUGEPAGE
-  huge_ = ::madvise(base_, capacity_, MADV_HUGEPAGE) == 0;  // THP "never" or no THP: small pages, same results
-#endif
+  // Refused or ignored (no THP, or THP "never"): small pages, the same results.
+  ::madvise(base_, capacity_, MADV_HUGEPAGE);
 }
 
 PageArena::~PageArena() {
@@ -63,7 +62,6 @@ void PageArena::swap(PageArena& o) noexcept {
   std::swap(mapped_, o.mapped_);
   std::swap(used_, o.used_);
   std::swap(open_, o.open_);
-  std::swap(huge_, o.huge_);
 }
 
 }  // namespace sculpt::sim

@@ -19,7 +19,8 @@ class PageArena {
   PageArena() = default;
   // Reserves `capacity` bytes of address space (rounded up to whole huge
   // pages; memory only as allocations open and touch it) and asks for huge pages.
-  // On failure the arena stays empty and allocate() always returns null.
+  // On failure, and for capacity 0, the arena stays empty and allocate()
+  // always returns null.
   explicit PageArena(std::size_t capacity);
   PageArena(PageArena&& o) noexcept { swap(o); }
   PageArena& operator=(PageArena&& o) noexcept {
@@ -42,7 +43,6 @@ class PageArena {
   }
   std::size_t capacity() const { return capacity_; }
   std::size_t used() const { return used_; }
-  bool huge_pages_requested() const { return huge_; }  // madvise(MADV_HUGEPAGE) accepted
 
  private:
   void swap(PageArena& o) noexcept;
@@ -52,7 +52,6 @@ class PageArena {
   std::size_t mapped_ = 0;
   std::size_t used_ = 0;
   std::size_t open_ = 0;       // bytes from base_ made accessible so far
-  bool huge_ = false;
 };
 
 }  // namespace sculpt::sim
