@@ -45,8 +45,9 @@ int choose_slots(const std::vector<int>& degree) {
 // The packed AVX2 path moves more bytes per vertex (the packed copies on top
 // of x and w): it wins while a mesh stays in cache (measured here: 10–40k
 // vertices 1.5× faster than the portable kernel) and loses once memory
-// bandwidth is the limit (100k+ vertices). Above this size: portable only,
-// which also saves the 64 bytes per vertex of the two packed buffers.
+// bandwidth is the limit (100k+ vertices). Above this size the AVX2 kernel
+// loads neighbours lane by lane from the arrays instead (FromArrays), and the
+// body saves the 64 bytes per vertex of the two packed buffers.
 constexpr std::uint32_t kPackedMaxVertices = 65536;
 
 }  // namespace
@@ -141,11 +142,21 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   const std::uint32_t n = static_cast<std::uint32_t>(n_in);
   b.n = n;
   b.blocks = (n + kBlock - 1) / kBlock;
-  // Address space for the most the arrays below can take (ELL at most 16
-  // wide, ax..az, clay copies, packed records; 64-byte padding each); only
-  // what they use is ever touched, and World::add_body trims the rest.
-  if (n >= kArenaMinVertices) b.arena = PageArena(std::size_t{n} * (63 * sizeof(S) + 38) + 64 * 64);
-  PageArena* arena = n >= kArenaMinVertices ? &b.arena : nullptr;
+  // Address space for the most the arrays below can take; only what they use
+  // is ever touched, and World::add_body trims the rest. Anything that does
+  // not fit falls back to the heap (Layout.BigBodiesKeepTheirArraysInOneArena
+  // checks that nothing does). A small body's arena stays empty: the heap.
+  if (n >= kArenaMinVertices) {
+    constexpr std::size_t kMaxSlots = 16;  // choose_slots' widest ELL
+    constexpr std::size_t scalars = 9       // x..z, wx..wz, rx..rz
+                                    + 3     // ax..az
+                                    + 3     // clay: srx..srz
+                                    + 2 * kMaxSlots  // rest_length, clay: slen
+                                    + 16;   // two packed records
+    constexpr std::size_t shorts = 3 + kMaxSlots;  // snapshot sx..sz, nbr
+    b.arena = PageArena(std::size_t{n} * (scalars * sizeof(S) + shorts * 2) + 32 * AlignedBuffer<S>::kAlignment);
+  }
+  PageArena* const arena = &b.arena;
 
   // --- Morton order of the rest shape ---------------------------------------
   std::array<double, 3> lo{}, hi{};

@@ -78,7 +78,7 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   // every vertex. The rest integrate each block as soon as no later block
   // reads it, from a pool slot.
   if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
-    for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), b.arena.capacity() ? &b.arena : nullptr);
+    for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), &b.arena);
   } else if (acc_free_.size() < b.pending_capacity) {
     acc_pool_.resize(3 * std::size_t{kBlock} * b.pending_capacity);
     acc_free_.resize(b.pending_capacity);
