@@ -635,7 +635,7 @@ const bool g_has_avx2 = detect_avx2();
 void force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
 void force_block_pieces(bool on) { g_block_pieces.store(on, std::memory_order_relaxed); }
 
-bool packed_path_active() {
+bool avx2_paths_active() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   const bool avx2 = g_has_avx2;
   return avx2 && !g_portable.load(std::memory_order_relaxed);
@@ -1026,7 +1026,7 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
     return spring ? fused_avx2<ForceModel::spring, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential)
                   : fused_avx2<ForceModel::linear, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential);
 #endif
-  // Not reachable when packed_path_active(); keep it correct anyway (unfused order).
+  // Not reachable when avx2_paths_active(); keep it correct anyway (unfused order).
   const Velocity vel =
       integrator == Integrator::position_verlet ? Velocity::step : Velocity::stored;
   potential = forces(a, model, vel, begin, end, ob, oe);

@@ -144,8 +144,9 @@ void force_portable(bool on);
 // Testing and benchmark knob: run whole blocks of the fused pass as separate
 // pieces (forces, integrate, pack), as before the one-pass block kernel.
 void force_block_pieces(bool on);
-// Whether forces() reads neighbours from ForceArgs::packed (AVX2 CPU, knob off).
-bool packed_path_active();
+// Whether the hand-written AVX2 paths run (AVX2 CPU, force_portable off): the
+// fused pass and forces() from packed records or lane by lane from the arrays.
+bool avx2_paths_active();
 
 // Which clone the CPU runs ("avx2" or "default"), for the benchmark report.
 const char* active_clone();

@@ -706,7 +706,7 @@ void World<S>::step_body(std::uint32_t bi) {
   // this tick's forces, which use the rest shape from before. (Linear-model
   // clay stays unfused: its packed records hold x − r, not x.)
   const bool clay = b.plastic;
-  const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::packed_path_active() &&
+  const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::avx2_paths_active() &&
                      !(clay && m.model == ForceModel::linear);
   const std::size_t mask_bytes = yield_mask_bytes(b);
   auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };  // clay bodies only

@@ -162,7 +162,7 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   j["clone"] = sim::kernel::active_clone();
   // Which force kernel ran: packed records, lane-by-lane AVX2 loads from the
   // arrays (float without records), or the compiler's clones (double, no AVX2).
-  const bool avx2 = sim::kernel::packed_path_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
+  const bool avx2 = sim::kernel::avx2_paths_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
   j["kernel"] = !avx2 ? "portable" : world.body(0).packed[0].empty() ? "avx2-gather" : "avx2-packed";
   if (!fast.seconds.empty()) {
     const double per_step = median(fast.seconds) / o.steps;

@@ -375,7 +375,7 @@ TEST(Determinism, FusedClayYieldsAndGrabsMatchPortableKernels) {
   kernel::force_portable(true);
   const ClayGrabRun portable = clay_grab_run();
   kernel::force_portable(false);
-  if (!kernel::packed_path_active()) GTEST_SKIP() << "no AVX2 here: the fused pass cannot run";
+  if (!kernel::avx2_paths_active()) GTEST_SKIP() << "no AVX2 here: the fused pass cannot run";
   EXPECT_GT(portable.held_at_end, 0u) << "the grab must still hold vertices when it has pulled out";
   EXPECT_NE(portable.rest_after, portable.rest_before) << "the clay must have yielded";
   for (bool pieces : {false, true}) {
