@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 2;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread
+const protocolMinor :UInt16 = 3;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw
 
 struct Vec3 {
   x @0 :Float32;
@@ -177,12 +177,14 @@ struct Overrun {
   minflt @7 :UInt64;               # page faults over the tick
   majflt @8 :UInt64;
   nivcsw @9 :UInt64;               # involuntary context switches over the tick
+  workNvcsw @10 :UInt64;           # (minor 3) voluntary switches over the work: the thread waited
 }
 
 struct SimThreadCounters {
   minflt @0 :UInt64;
   majflt @1 :UInt64;
   nivcsw @2 :UInt64;
+  workNvcsw @3 :UInt64;            # (minor 3) voluntary switches mid-tick: 0 unless the thread blocked
 }
 
 struct HistogramBucket {

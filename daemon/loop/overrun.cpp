@@ -65,14 +65,15 @@ TickCounters thread_totals() {
     c.minflt = static_cast<std::uint64_t>(ru.ru_minflt);
     c.majflt = static_cast<std::uint64_t>(ru.ru_majflt);
     c.nivcsw = static_cast<std::uint64_t>(ru.ru_nivcsw);
+    c.work_nvcsw = static_cast<std::uint64_t>(ru.ru_nvcsw);
   }
   return c;
 }
 
 TickCounters operator-(const TickCounters& a, const TickCounters& b) {
   const auto d = [](std::uint64_t x, std::uint64_t y) { return x > y ? x - y : 0; };
-  return TickCounters{d(a.work_cpu_ns, b.work_cpu_ns), d(a.minflt, b.minflt), d(a.majflt, b.majflt),
-                      d(a.nivcsw, b.nivcsw)};
+  return TickCounters{d(a.work_cpu_ns, b.work_cpu_ns), d(a.work_nvcsw, b.work_nvcsw), d(a.minflt, b.minflt),
+                      d(a.majflt, b.majflt), d(a.nivcsw, b.nivcsw)};
 }
 
 void OverrunLog::record(OverrunRecord r) {

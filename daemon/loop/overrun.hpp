@@ -38,10 +38,15 @@ struct TickTiming {
 };
 
 // The sim thread's kernel counters over one tick (from the end of the
-// previous tick's work to the end of this one's), and its CPU time over the
-// work alone (wake → t3).
+// previous tick's work to the end of this one's), and its CPU time and
+// voluntary switches over the work alone (wake → t3).
 struct TickCounters {
   std::uint64_t work_cpu_ns = 0;  // CLOCK_THREAD_CPUTIME_ID over the work (excludes host steal)
+  // Voluntary context switches over the work: the thread waited on something
+  // (a lock, a full socket, a page read from disk). The sim thread makes no
+  // blocking call, so this stays 0; a stall that is not the thread's own
+  // (host steal, preemption) leaves it 0 too.
+  std::uint64_t work_nvcsw = 0;
   std::uint64_t minflt = 0;       // page faults served from memory
   std::uint64_t majflt = 0;       // page faults that waited for I/O
   std::uint64_t nivcsw = 0;       // involuntary context switches (preempted)
@@ -75,7 +80,8 @@ OverrunRecord make_overrun_record(std::uint64_t tick, int cpu, const TickTiming&
 // The calling thread's counters: each call is one non-blocking system call
 // (clock_gettime, getrusage), no allocation, no lock.
 std::uint64_t thread_cpu_ns();  // CLOCK_THREAD_CPUTIME_ID
-// Cumulative since the thread began: minflt, majflt, nivcsw (work_cpu_ns 0).
+// Cumulative since the thread began: minflt, majflt, nivcsw, and voluntary
+// switches in work_nvcsw (work_cpu_ns 0); the loop subtracts two readings.
 TickCounters thread_totals();
 
 // Differences of cumulative counters, never negative.

@@ -47,11 +47,13 @@ struct LoopStats {
   LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns
   LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
   OverrunLog overrun_log;                         // why each overrun happened (loop/overrun.hpp)
-  // The sim thread's own kernel counters since its loop began: page faults
-  // and preemptions.
+  // The sim thread's own kernel counters since its loop began: page faults,
+  // preemptions, and waits in the middle of a tick's work (0 unless something
+  // it calls blocks: a stalled viewer or device must never make one).
   std::atomic<std::uint64_t> thread_minflt{0};
   std::atomic<std::uint64_t> thread_majflt{0};
   std::atomic<std::uint64_t> thread_nivcsw{0};
+  std::atomic<std::uint64_t> thread_work_nvcsw{0};
 };
 
 struct SimThreadOptions {

@@ -23,6 +23,7 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   s.sim_thread.minflt = stats.thread_minflt.load(std::memory_order_relaxed);
   s.sim_thread.majflt = stats.thread_majflt.load(std::memory_order_relaxed);
   s.sim_thread.nivcsw = stats.thread_nivcsw.load(std::memory_order_relaxed);
+  s.sim_thread.work_nvcsw = stats.thread_work_nvcsw.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -46,6 +47,7 @@ nlohmann::json to_json(const OverrunRecord& r) {
       {"minflt", r.counters.minflt},
       {"majflt", r.counters.majflt},
       {"nivcsw", r.counters.nivcsw},
+      {"work_nvcsw", r.counters.work_nvcsw},
   };
 }
 }  // namespace
@@ -77,7 +79,8 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
       {"sim_thread",
        {{"minflt", s.sim_thread.minflt},
         {"majflt", s.sim_thread.majflt},
-        {"nivcsw", s.sim_thread.nivcsw}}},
+        {"nivcsw", s.sim_thread.nivcsw},
+        {"work_nvcsw", s.sim_thread.work_nvcsw}}},
   };
 }
 

@@ -7,8 +7,9 @@
 // and why ticks overran (loop/overrun.hpp):
 //   overrun_causes {late_wake, long_step, long_step_off_cpu},
 //   recent_overruns [{tick, cause, cpu, late_us, stage_us {input, collision,
-//     integration, publish}, work_cpu_us, minflt, majflt, nivcsw}] (the last 8),
-//   sim_thread {minflt, majflt, nivcsw} (since the loop began)
+//     integration, publish}, work_cpu_us, minflt, majflt, nivcsw, work_nvcsw}]
+//     (the last 8),
+//   sim_thread {minflt, majflt, nivcsw, work_nvcsw} (since the loop began)
 #pragma once
 
 #include <array>
@@ -41,7 +42,7 @@ struct StatsSnapshot {
   std::array<std::uint64_t, static_cast<int>(OverrunCause::count)> overrun_causes{};
   std::uint64_t long_steps_off_cpu = 0;        // of overrun_causes[long_step]
   std::vector<OverrunRecord> recent_overruns;  // oldest first
-  TickCounters sim_thread{};                   // faults and preemptions since the loop began
+  TickCounters sim_thread{};                   // faults, preemptions, waits since the loop began
 };
 
 Percentiles percentiles_us(const LatencyHistogram& h);

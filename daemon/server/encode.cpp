@@ -109,7 +109,7 @@ void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, c
 
 namespace {
 
-// Stats minor 2: why ticks overran, exactly as loop::snapshot has it.
+// Stats minor 2 (and 3's workNvcsw): why ticks overran, exactly as loop::snapshot has it.
 void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
   using loop::OverrunCause;
   auto c = out.initOverrunCauses();
@@ -131,11 +131,13 @@ void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
     o.setMinflt(r.counters.minflt);
     o.setMajflt(r.counters.majflt);
     o.setNivcsw(r.counters.nivcsw);
+    o.setWorkNvcsw(r.counters.work_nvcsw);
   }
   auto t = out.initSimThread();
   t.setMinflt(s.sim_thread.minflt);
   t.setMajflt(s.sim_thread.majflt);
   t.setNivcsw(s.sim_thread.nivcsw);
+  t.setWorkNvcsw(s.sim_thread.work_nvcsw);
 }
 
 void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
@@ -157,12 +159,14 @@ void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
     r.counters.minflt = o.getMinflt();
     r.counters.majflt = o.getMajflt();
     r.counters.nivcsw = o.getNivcsw();
+    r.counters.work_nvcsw = o.getWorkNvcsw();
     s.recent_overruns.push_back(r);
   }
   const auto t = in.getSimThread();
   s.sim_thread.minflt = t.getMinflt();
   s.sim_thread.majflt = t.getMajflt();
   s.sim_thread.nivcsw = t.getNivcsw();
+  s.sim_thread.work_nvcsw = t.getWorkNvcsw();
 }
 
 }  // namespace

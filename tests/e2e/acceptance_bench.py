@@ -81,14 +81,16 @@ def attribution(s):
     c, t = s["overrun_causes"], s["sim_thread"]
     out = [host,
            "overrun causes: " + " ".join(f"{k} {v}" for k, v in c.items())
-           + f" | sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']}"]
+           + f" | sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']}"
+           + f" waits mid-tick {t.get('work_nvcsw', '?')}"]
     for r in s["recent_overruns"]:
         st = r["stage_us"]
         cause = r["cause"] + (" (off cpu)" if r["off_cpu"] else "")
         out.append(f"  tick {r['tick']} cpu {r['cpu']} {cause}: late {r['late_us']:.0f} us, "
                    + " ".join(f"{k} {v:.0f}" for k, v in st.items())
                    + f" us; on-cpu {r['work_cpu_us']:.0f} us, "
-                   f"minflt {r['minflt']} majflt {r['majflt']} nivcsw {r['nivcsw']}")
+                   f"minflt {r['minflt']} majflt {r['majflt']} nivcsw {r['nivcsw']} "
+                   f"waits {r.get('work_nvcsw', '?')}")
     return out
 
 

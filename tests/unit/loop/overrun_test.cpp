@@ -170,14 +170,29 @@ TEST(ThreadCounters, SeeThisThreadsPageFaultsAndCpuTime) {
   EXPECT_GT(thread_cpu_ns() - cpu_before, 1'000'000u) << "5 ms of spinning used no CPU time";
 }
 
+TEST(ThreadCounters, SeeThisThreadWaitButNotOthers) {
+  // A sleep is a voluntary switch: the thread gave up its CPU to wait.
+  const TickCounters before = thread_totals();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  EXPECT_GE((thread_totals() - before).work_nvcsw, 1u);
+  // Another thread's waits are not this one's.
+  const TickCounters mid = thread_totals();
+  std::thread([] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); }).join();
+  const std::uint64_t joined = (thread_totals() - mid).work_nvcsw;  // join itself may wait once
+  EXPECT_LE(joined, 1u);
+}
+
 TEST(ThreadCounters, ArithmeticNeverGoesNegative) {
   TickCounters a, b;
   a.minflt = 5;
   b.minflt = 7;
   b.nivcsw = 3;
+  b.work_nvcsw = 2;
   const TickCounters d = a - b;
   EXPECT_EQ(d.minflt, 0u);
   EXPECT_EQ(d.nivcsw, 0u);
+  EXPECT_EQ(d.work_nvcsw, 0u);
+  EXPECT_EQ((b - a).work_nvcsw, 2u);
   EXPECT_EQ((b - a).minflt, 2u);
 }
 

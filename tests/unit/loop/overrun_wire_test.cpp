@@ -1,5 +1,5 @@
 // The overrun attribution reaches `sculptctl status --json` unchanged: the
-// stats go through proto::Stats (minor 2 fields) and come back as the same
+// stats go through proto::Stats (minor 2 and 3 fields) and come back as the same
 // JSON object `sculptd --stats-json` writes.
 #include <gtest/gtest.h>
 
@@ -27,10 +27,10 @@ TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
     r.cpu = static_cast<int>(i % 2);
     r.late_ns = 1'234'567 + static_cast<std::int64_t>(i);
     r.stage_ns = {1'001, 120'003, 950'007 + i, 20'011};
-    r.counters = {1'100'013, i, 0, 1};
+    r.counters = {.work_cpu_ns = 1'100'013, .work_nvcsw = i % 2, .minflt = i, .majflt = 0, .nivcsw = 1};
     d.stats.recent_overruns.push_back(r);
   }
-  d.stats.sim_thread = {0, 12, 0, 4};
+  d.stats.sim_thread = {.work_cpu_ns = 0, .work_nvcsw = 2, .minflt = 12, .majflt = 0, .nivcsw = 4};
   capnp::MallocMessageBuilder m;
   server::fill_stats(m.initRoot<proto::Stats>(), d);
   const StatsSnapshot back = server::stats_from(m.getRoot<proto::Stats>().asReader());
@@ -44,6 +44,8 @@ TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
   EXPECT_EQ(j["overrun_causes"]["long_step_off_cpu"], 1);
   EXPECT_EQ(j["overrun_causes"]["late_wake"], 2);
   EXPECT_EQ(j["sim_thread"]["nivcsw"], 4);
+  EXPECT_EQ(j["sim_thread"]["work_nvcsw"], 2);
+  EXPECT_EQ(j["recent_overruns"][1]["work_nvcsw"], 1);
 }
 
 TEST(OverrunStats, AnOlderDaemonsStatsReadAsNoAttribution) {
