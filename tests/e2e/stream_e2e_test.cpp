@@ -62,15 +62,22 @@ struct Control {
   struct Loop {
     std::uint64_t ticks, overruns, waits_mid_tick;
   };
+  std::uint64_t overruns_printed = 0;
   Loop loop() {
     auto r = c.session().statusRequest().send().wait(io.waitScope);
     const auto s = r.getStats();
-    for (const auto o : s.getRecentOverruns())
+    const auto recent = s.getRecentOverruns();
+    const std::uint64_t first = s.getOverruns() - recent.size();  // the records are the last few, oldest first
+    for (unsigned i = 0; i < recent.size(); ++i) {
+      if (first + i < overruns_printed) continue;
+      const auto o = recent[i];
       std::printf("  overrun at tick %llu: %s, %s CPU, late %.1f ms, waits mid-tick %llu\n",
                   static_cast<unsigned long long>(o.getTick()),
                   o.getCause() == proto::OverrunCause::LONG_STEP ? "long step" : "late wake",
                   o.getOffCpu() ? "off the" : "on the", static_cast<double>(o.getLateNs()) / 1e6,
                   static_cast<unsigned long long>(o.getWorkNvcsw()));
+    }
+    overruns_printed = s.getOverruns();
     return {s.getTicks(), s.getOverruns(), s.getSimThread().getWorkNvcsw()};
   }
   std::uint64_t viewers() { return c.session().statusRequest().send().wait(io.waitScope).getStats().getViewers(); }

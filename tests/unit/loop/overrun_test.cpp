@@ -170,7 +170,7 @@ TEST(ThreadCounters, SeeThisThreadsPageFaultsAndCpuTime) {
   EXPECT_GT(thread_cpu_ns() - cpu_before, 1'000'000u) << "5 ms of spinning used no CPU time";
 }
 
-TEST(ThreadCounters, SeeThisThreadWaitButNotOthers) {
+TEST(ThreadCounters, SeeThisThreadsWaitsButNotAnotherThreads) {
   // A sleep is a voluntary switch: the thread gave up its CPU to wait.
   const TickCounters before = thread_totals();
   std::this_thread::sleep_for(std::chrono::milliseconds(2));
