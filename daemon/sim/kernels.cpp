@@ -637,8 +637,7 @@ void force_block_pieces(bool on) { g_block_pieces.store(on, std::memory_order_re
 
 bool avx2_paths_active() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  const bool avx2 = g_has_avx2;
-  return avx2 && !g_portable.load(std::memory_order_relaxed);
+  return g_has_avx2 && !g_portable.load(std::memory_order_relaxed);
 #else
   return false;
 #endif
@@ -647,8 +646,7 @@ bool avx2_paths_active() {
 float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uint32_t begin, std::uint32_t end,
              std::uint32_t ob, std::uint32_t oe) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  const bool avx2 = g_has_avx2;
-  if (avx2 && !g_portable.load(std::memory_order_relaxed)) {
+  if (avx2_paths_active()) {
     return a.packed ? forces_avx2<true>(a, model, vel, begin, end, ob, oe)
                     : forces_avx2<false>(a, model, vel, begin, end, ob, oe);
   }
@@ -747,8 +745,7 @@ void pack(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* pack
           std::uint32_t end) {
   const bool bd = vel == Velocity::step, lin = model == ForceModel::linear;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  const bool avx2 = g_has_avx2;
-  if (avx2) {
+  if (g_has_avx2) {
     if (bd && !lin) pack_avx2<Velocity::step, ForceModel::spring>(A, packed, begin, end);
     else if (bd) pack_avx2<Velocity::step, ForceModel::linear>(A, packed, begin, end);
     else if (!lin) pack_avx2<Velocity::stored, ForceModel::spring>(A, packed, begin, end);
@@ -1174,8 +1171,7 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
 bool yield_candidates(const ForceArgs<float>& a, float yield, float anchor_limit, bool springs, std::uint32_t begin,
                       std::uint32_t end, std::uint8_t* mask) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  const bool avx2 = g_has_avx2;
-  if (avx2 && !g_portable.load(std::memory_order_relaxed))
+  if (avx2_paths_active())
     return yield_candidates_avx2(a, yield, anchor_limit, springs, begin, end, mask);
 #endif
   return yield_candidates_scalar(a, yield, anchor_limit, springs, begin, end, mask);
@@ -1223,8 +1219,7 @@ __attribute__((target("avx2"))) void outcodes_avx2(const float* x, const float* 
 void outcodes(const float* x, const float* y, const float* z, std::uint32_t begin, std::uint32_t end,
               const float* lo, const float* hi, std::uint8_t* out) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  const bool avx2 = g_has_avx2;
-  if (avx2 && !g_portable.load(std::memory_order_relaxed)) return outcodes_avx2(x, y, z, begin, end, lo, hi, out);
+  if (avx2_paths_active()) return outcodes_avx2(x, y, z, begin, end, lo, hi, out);
 #endif
   outcodes_scalar(x, y, z, begin, end, lo, hi, out);
 }
