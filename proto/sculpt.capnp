@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 3;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw
+const protocolMinor :UInt16 = 4;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault
 
 struct Vec3 {
   x @0 :Float32;
@@ -178,13 +178,15 @@ struct Overrun {
   majflt @8 :UInt64;
   nivcsw @9 :UInt64;               # involuntary context switches over the tick
   workNvcsw @10 :UInt64;           # (minor 3) voluntary switches over the work: the thread waited
+  workNvcswNoFault @11 :UInt64;    # (minor 4) the same, if the work took no page fault (else 0)
 }
 
 struct SimThreadCounters {
   minflt @0 :UInt64;
   majflt @1 :UInt64;
   nivcsw @2 :UInt64;
-  workNvcsw @3 :UInt64;            # (minor 3) voluntary switches mid-tick: 0 unless the thread blocked
+  workNvcsw @3 :UInt64;            # (minor 3) voluntary switches mid-tick (a blocking call, or a page the kernel moved)
+  workNvcswNoFault @4 :UInt64;     # (minor 4) those in ticks without a page fault: 0 unless the thread blocked
 }
 
 struct HistogramBucket {

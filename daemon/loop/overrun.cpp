@@ -73,7 +73,7 @@ TickCounters thread_totals() {
 TickCounters operator-(const TickCounters& a, const TickCounters& b) {
   const auto d = [](std::uint64_t x, std::uint64_t y) { return x > y ? x - y : 0; };
   return TickCounters{d(a.work_cpu_ns, b.work_cpu_ns), d(a.work_nvcsw, b.work_nvcsw), d(a.minflt, b.minflt),
-                      d(a.majflt, b.majflt), d(a.nivcsw, b.nivcsw)};
+                      d(a.majflt, b.majflt), d(a.nivcsw, b.nivcsw), d(a.work_nvcsw_no_fault, b.work_nvcsw_no_fault)};
 }
 
 void OverrunLog::record(OverrunRecord r) {

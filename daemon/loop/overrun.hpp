@@ -43,13 +43,18 @@ struct TickTiming {
 struct TickCounters {
   std::uint64_t work_cpu_ns = 0;  // CLOCK_THREAD_CPUTIME_ID over the work (excludes host steal)
   // Voluntary context switches over the work: the thread waited on something
-  // (a lock, a full socket, a page read from disk). The sim thread makes no
-  // blocking call, so this stays 0; a stall that is not the thread's own
-  // (host steal, preemption) leaves it 0 too.
+  // (a lock, a full socket, a page read from disk, a page the kernel was
+  // moving). Host steal and preemption leave it 0.
   std::uint64_t work_nvcsw = 0;
   std::uint64_t minflt = 0;       // page faults served from memory
   std::uint64_t majflt = 0;       // page faults that waited for I/O
   std::uint64_t nivcsw = 0;       // involuntary context switches (preempted)
+  // work_nvcsw of a tick whose work took no page fault: a wait on something
+  // other than memory (a lock, a socket, a blocking call). The sim thread makes
+  // no blocking call, so this stays 0. A wait inside a page fault is the
+  // kernel's memory management (compaction migrating a page, a busy mmap lock)
+  // and is counted in work_nvcsw only.
+  std::uint64_t work_nvcsw_no_fault = 0;
 };
 
 // Pure functions (the unit tests call them with made-up times).

@@ -134,7 +134,7 @@ void SimThread::run() {
     std::int64_t t0 = monotonic_ns();
     while (t0 < deadline) t0 = monotonic_ns();  // woken early on purpose: hold the CPU to the deadline
     const std::uint64_t cpu0 = thread_cpu_ns();
-    const std::uint64_t nvcsw0 = thread_totals().work_nvcsw;
+    const TickCounters at_wake = thread_totals();
     const int cpu = sched_getcpu();
     stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));
     stats_.heartbeats.store(stats_.heartbeats.load(std::memory_order_relaxed) + 1, std::memory_order_release);
@@ -173,9 +173,15 @@ void SimThread::run() {
     TickCounters counters = take_counters();
     counters.work_cpu_ns = cpu3 > cpu0 ? cpu3 - cpu0 : 0;
     // take_counters' switches span the sleep (one voluntary switch): count
-    // from the wake instead. prev is the reading it just took.
-    counters.work_nvcsw = prev.work_nvcsw > nvcsw0 ? prev.work_nvcsw - nvcsw0 : 0;
+    // from the wake instead. prev is the reading it just took. A wait in a
+    // tick whose work faulted may be the kernel moving a page (compaction):
+    // only the others are the thread's own blocking.
+    const TickCounters work = prev - at_wake;
+    counters.work_nvcsw = work.work_nvcsw;
+    counters.work_nvcsw_no_fault = work.minflt + work.majflt == 0 ? work.work_nvcsw : 0;
     store(stats_.thread_work_nvcsw, stats_.thread_work_nvcsw.load(std::memory_order_relaxed) + counters.work_nvcsw);
+    store(stats_.thread_work_nvcsw_no_fault,
+          stats_.thread_work_nvcsw_no_fault.load(std::memory_order_relaxed) + counters.work_nvcsw_no_fault);
     const bool overran = is_overrun(timing, period);  // counted by the log: overrun_log.total()
     if (overran) stats_.overrun_log.record(make_overrun_record(tick, cpu, timing, counters));
     ++tick;

@@ -48,12 +48,14 @@ struct LoopStats {
   LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
   OverrunLog overrun_log;                         // why each overrun happened (loop/overrun.hpp)
   // The sim thread's own kernel counters since its loop began: page faults,
-  // preemptions, and waits in the middle of a tick's work (0 unless something
-  // it calls blocks: a stalled viewer or device must never make one).
+  // preemptions, and waits in the middle of a tick's work: all of them, and
+  // those in ticks without a page fault (0 unless something it calls blocks:
+  // a stalled viewer or device must never make one).
   std::atomic<std::uint64_t> thread_minflt{0};
   std::atomic<std::uint64_t> thread_majflt{0};
   std::atomic<std::uint64_t> thread_nivcsw{0};
   std::atomic<std::uint64_t> thread_work_nvcsw{0};
+  std::atomic<std::uint64_t> thread_work_nvcsw_no_fault{0};
 };
 
 struct SimThreadOptions {

@@ -24,6 +24,7 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   s.sim_thread.majflt = stats.thread_majflt.load(std::memory_order_relaxed);
   s.sim_thread.nivcsw = stats.thread_nivcsw.load(std::memory_order_relaxed);
   s.sim_thread.work_nvcsw = stats.thread_work_nvcsw.load(std::memory_order_relaxed);
+  s.sim_thread.work_nvcsw_no_fault = stats.thread_work_nvcsw_no_fault.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -48,6 +49,7 @@ nlohmann::json to_json(const OverrunRecord& r) {
       {"majflt", r.counters.majflt},
       {"nivcsw", r.counters.nivcsw},
       {"work_nvcsw", r.counters.work_nvcsw},
+      {"work_nvcsw_no_fault", r.counters.work_nvcsw_no_fault},
   };
 }
 }  // namespace
@@ -80,7 +82,8 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
        {{"minflt", s.sim_thread.minflt},
         {"majflt", s.sim_thread.majflt},
         {"nivcsw", s.sim_thread.nivcsw},
-        {"work_nvcsw", s.sim_thread.work_nvcsw}}},
+        {"work_nvcsw", s.sim_thread.work_nvcsw},
+        {"work_nvcsw_no_fault", s.sim_thread.work_nvcsw_no_fault}}},
   };
 }
 

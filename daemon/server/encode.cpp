@@ -109,7 +109,7 @@ void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, c
 
 namespace {
 
-// Stats minor 2 (and 3's workNvcsw): why ticks overran, exactly as loop::snapshot has it.
+// Stats minor 2 (3's workNvcsw, 4's workNvcswNoFault): why ticks overran, exactly as loop::snapshot has it.
 void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
   using loop::OverrunCause;
   auto c = out.initOverrunCauses();
@@ -132,12 +132,14 @@ void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
     o.setMajflt(r.counters.majflt);
     o.setNivcsw(r.counters.nivcsw);
     o.setWorkNvcsw(r.counters.work_nvcsw);
+    o.setWorkNvcswNoFault(r.counters.work_nvcsw_no_fault);
   }
   auto t = out.initSimThread();
   t.setMinflt(s.sim_thread.minflt);
   t.setMajflt(s.sim_thread.majflt);
   t.setNivcsw(s.sim_thread.nivcsw);
   t.setWorkNvcsw(s.sim_thread.work_nvcsw);
+  t.setWorkNvcswNoFault(s.sim_thread.work_nvcsw_no_fault);
 }
 
 void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
@@ -160,6 +162,7 @@ void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
     r.counters.majflt = o.getMajflt();
     r.counters.nivcsw = o.getNivcsw();
     r.counters.work_nvcsw = o.getWorkNvcsw();
+    r.counters.work_nvcsw_no_fault = o.getWorkNvcswNoFault();
     s.recent_overruns.push_back(r);
   }
   const auto t = in.getSimThread();
@@ -167,6 +170,7 @@ void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
   s.sim_thread.majflt = t.getMajflt();
   s.sim_thread.nivcsw = t.getNivcsw();
   s.sim_thread.work_nvcsw = t.getWorkNvcsw();
+  s.sim_thread.work_nvcsw_no_fault = t.getWorkNvcswNoFault();
 }
 
 }  // namespace

@@ -82,7 +82,8 @@ def attribution(s):
     out = [host,
            "overrun causes: " + " ".join(f"{k} {v}" for k, v in c.items())
            + f" | sim thread: minflt {t['minflt']} majflt {t['majflt']} nivcsw {t['nivcsw']}"
-           + f" waits mid-tick {t.get('work_nvcsw', '?')}"]
+           + f" waits mid-tick {t.get('work_nvcsw', '?')}"
+           + f" (without a page fault {t.get('work_nvcsw_no_fault', '?')})"]
     for r in s["recent_overruns"]:
         st = r["stage_us"]
         cause = r["cause"] + (" (off cpu)" if r["off_cpu"] else "")
@@ -90,7 +91,7 @@ def attribution(s):
                    + " ".join(f"{k} {v:.0f}" for k, v in st.items())
                    + f" us; on-cpu {r['work_cpu_us']:.0f} us, "
                    f"minflt {r['minflt']} majflt {r['majflt']} nivcsw {r['nivcsw']} "
-                   f"waits {r.get('work_nvcsw', '?')}")
+                   f"waits {r.get('work_nvcsw', '?')} (without a page fault {r.get('work_nvcsw_no_fault', '?')})")
     return out
 
 

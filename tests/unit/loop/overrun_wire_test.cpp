@@ -27,10 +27,11 @@ TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
     r.cpu = static_cast<int>(i % 2);
     r.late_ns = 1'234'567 + static_cast<std::int64_t>(i);
     r.stage_ns = {1'001, 120'003, 950'007 + i, 20'011};
-    r.counters = {.work_cpu_ns = 1'100'013, .work_nvcsw = i % 2, .minflt = i, .majflt = 0, .nivcsw = 1};
+    r.counters = {.work_cpu_ns = 1'100'013, .work_nvcsw = i % 2, .minflt = i, .majflt = 0, .nivcsw = 1,
+                  .work_nvcsw_no_fault = i == 1 ? 0u : i % 2};
     d.stats.recent_overruns.push_back(r);
   }
-  d.stats.sim_thread = {.work_cpu_ns = 0, .work_nvcsw = 2, .minflt = 12, .majflt = 0, .nivcsw = 4};
+  d.stats.sim_thread = {.work_cpu_ns = 0, .work_nvcsw = 2, .minflt = 12, .majflt = 0, .nivcsw = 4, .work_nvcsw_no_fault = 1};
   capnp::MallocMessageBuilder m;
   server::fill_stats(m.initRoot<proto::Stats>(), d);
   const StatsSnapshot back = server::stats_from(m.getRoot<proto::Stats>().asReader());
@@ -46,6 +47,8 @@ TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
   EXPECT_EQ(j["sim_thread"]["nivcsw"], 4);
   EXPECT_EQ(j["sim_thread"]["work_nvcsw"], 2);
   EXPECT_EQ(j["recent_overruns"][1]["work_nvcsw"], 1);
+  EXPECT_EQ(j["recent_overruns"][1]["work_nvcsw_no_fault"], 0);
+  EXPECT_EQ(j["sim_thread"]["work_nvcsw_no_fault"], 1);
 }
 
 TEST(OverrunStats, AnOlderDaemonsStatsReadAsNoAttribution) {
