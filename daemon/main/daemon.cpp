@@ -29,6 +29,7 @@
 #include "input/device_manager.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
+#include "loop/compaction.hpp"
 #include "loop/preemption.hpp"
 #include "loop/sim_thread.hpp"
 #include "loop/scene_tools.hpp"
@@ -286,10 +287,12 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
     // The sim thread. READY waits for its first tick (housekeep()).
     start_sim(0, false);
-    // Once per process (the kernel's preemption model cannot change while we
-    // run), not at every scene swap.
-    if (cfg_.realtime)
+    // Once per process, not at every scene swap: the kernel's settings that
+    // hold up a real-time thread.
+    if (cfg_.realtime) {
       if (auto w = loop::preemption_warning(loop::current_preemption_model())) log::warning("{}", *w);
+      if (auto w = loop::compaction_warning(loop::current_compact_unevictable_allowed())) log::warning("{}", *w);
+    }
 
     // The io loop's tasks.
     tasks_ = kj::heap<kj::TaskSet>(*this);
