@@ -4,7 +4,7 @@
 // touches a page being moved waits inside the page fault until it lands, a wait
 // in the middle of a tick (stats: work_nvcsw, not work_nvcsw_no_fault). Seen
 // here: forcing compaction during 300 ticks of the sim thread's unit test gave a
-// wait mid-tick in 1 run of 30 to 4 of 30; without compaction, none in 40.
+// wait mid-tick in 1 run of 30 to 4 of 30; without compaction, none in 70.
 #pragma once
 
 #include <optional>
