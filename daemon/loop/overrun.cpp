@@ -58,22 +58,21 @@ std::uint64_t thread_cpu_ns() {
   return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000u + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
-TickCounters thread_totals() {
-  TickCounters c;
+ThreadTotals thread_totals() {
+  ThreadTotals c;
   rusage ru{};
   if (getrusage(RUSAGE_THREAD, &ru) == 0) {
     c.minflt = static_cast<std::uint64_t>(ru.ru_minflt);
     c.majflt = static_cast<std::uint64_t>(ru.ru_majflt);
+    c.nvcsw = static_cast<std::uint64_t>(ru.ru_nvcsw);
     c.nivcsw = static_cast<std::uint64_t>(ru.ru_nivcsw);
-    c.work_nvcsw = static_cast<std::uint64_t>(ru.ru_nvcsw);
   }
   return c;
 }
 
-TickCounters operator-(const TickCounters& a, const TickCounters& b) {
+ThreadTotals operator-(const ThreadTotals& a, const ThreadTotals& b) {
   const auto d = [](std::uint64_t x, std::uint64_t y) { return x > y ? x - y : 0; };
-  return TickCounters{d(a.work_cpu_ns, b.work_cpu_ns), d(a.work_nvcsw, b.work_nvcsw), d(a.minflt, b.minflt),
-                      d(a.majflt, b.majflt), d(a.nivcsw, b.nivcsw), d(a.work_nvcsw_no_fault, b.work_nvcsw_no_fault)};
+  return ThreadTotals{d(a.minflt, b.minflt), d(a.majflt, b.majflt), d(a.nvcsw, b.nvcsw), d(a.nivcsw, b.nivcsw)};
 }
 
 void OverrunLog::record(OverrunRecord r) {

@@ -85,12 +85,16 @@ OverrunRecord make_overrun_record(std::uint64_t tick, int cpu, const TickTiming&
 // The calling thread's counters: each call is one non-blocking system call
 // (clock_gettime, getrusage), no allocation, no lock.
 std::uint64_t thread_cpu_ns();  // CLOCK_THREAD_CPUTIME_ID
-// Cumulative since the thread began: minflt, majflt, nivcsw, and voluntary
-// switches in work_nvcsw (work_cpu_ns 0); the loop subtracts two readings.
-TickCounters thread_totals();
+// The calling thread's getrusage counters, cumulative since it began: the
+// loop subtracts two readings to get a tick's (TickCounters).
+struct ThreadTotals {
+  std::uint64_t minflt = 0, majflt = 0;  // page faults
+  std::uint64_t nvcsw = 0, nivcsw = 0;   // voluntary (waits, sleeps) and involuntary context switches
+};
+ThreadTotals thread_totals();
 
 // Differences of cumulative counters, never negative.
-TickCounters operator-(const TickCounters& a, const TickCounters& b);
+ThreadTotals operator-(const ThreadTotals& a, const ThreadTotals& b);
 
 // Single writer (the sim thread), any readers.
 class OverrunLog {

@@ -109,17 +109,19 @@ void SimThread::run() {
   // ~1.7 µs measured here; the two at the wake, ~0.85 µs, count in the input
   // stage's time): they say why a tick overran, and whether the thread ever
   // waited on something mid-tick.
-  const TickCounters at_start = thread_totals();
-  TickCounters prev = at_start;
+  const ThreadTotals at_start = thread_totals();
+  ThreadTotals prev = at_start;
   const auto take_counters = [&] {
-    const TickCounters now = thread_totals();
-    const TickCounters since_start = now - at_start;
+    const ThreadTotals now = thread_totals();
+    const ThreadTotals since_start = now - at_start;
     store(stats_.thread_minflt, since_start.minflt);
     store(stats_.thread_majflt, since_start.majflt);
     store(stats_.thread_nivcsw, since_start.nivcsw);
-    const TickCounters tick_counters = now - prev;
+    const ThreadTotals tick = now - prev;
     prev = now;
-    return tick_counters;
+    TickCounters c;
+    c.minflt = tick.minflt, c.majflt = tick.majflt, c.nivcsw = tick.nivcsw;
+    return c;
   };
   std::int64_t deadline = monotonic_ns() + period;
   std::uint64_t tick = world_.tick() + options_.first_tick;
@@ -134,7 +136,7 @@ void SimThread::run() {
     std::int64_t t0 = monotonic_ns();
     while (t0 < deadline) t0 = monotonic_ns();  // woken early on purpose: hold the CPU to the deadline
     const std::uint64_t cpu0 = thread_cpu_ns();
-    const TickCounters at_wake = thread_totals();
+    const ThreadTotals at_wake = thread_totals();
     const int cpu = sched_getcpu();
     stats_.jitter.record(static_cast<std::uint64_t>(t0 > deadline ? t0 - deadline : 0));
     stats_.heartbeats.store(stats_.heartbeats.load(std::memory_order_relaxed) + 1, std::memory_order_release);
@@ -172,13 +174,13 @@ void SimThread::run() {
 
     TickCounters counters = take_counters();
     counters.work_cpu_ns = cpu3 > cpu0 ? cpu3 - cpu0 : 0;
-    // take_counters' switches span the sleep (one voluntary switch): count
-    // from the wake instead. prev is the reading it just took. A wait in a
+    // The tick's voluntary switches include the sleep's: count them from the
+    // wake instead. prev is the reading take_counters just took. A wait in a
     // tick whose work faulted may be the kernel moving a page (compaction):
     // only the others are the thread's own blocking.
-    const TickCounters work = prev - at_wake;
-    counters.work_nvcsw = work.work_nvcsw;
-    counters.work_nvcsw_no_fault = work.minflt + work.majflt == 0 ? work.work_nvcsw : 0;
+    const ThreadTotals work = prev - at_wake;
+    counters.work_nvcsw = work.nvcsw;
+    counters.work_nvcsw_no_fault = work.minflt + work.majflt == 0 ? work.nvcsw : 0;
     store(stats_.thread_work_nvcsw, stats_.thread_work_nvcsw.load(std::memory_order_relaxed) + counters.work_nvcsw);
     store(stats_.thread_work_nvcsw_no_fault,
           stats_.thread_work_nvcsw_no_fault.load(std::memory_order_relaxed) + counters.work_nvcsw_no_fault);

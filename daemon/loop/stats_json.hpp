@@ -8,8 +8,7 @@
 //   overrun_causes {late_wake, long_step, long_step_off_cpu},
 //   recent_overruns [{tick, cause, cpu, late_us, stage_us {input, collision,
 //     integration, publish}, work_cpu_us, minflt, majflt, nivcsw, work_nvcsw,
-//     work_nvcsw_no_fault}]
-//     (the last 8),
+//     work_nvcsw_no_fault}] (the last 8),
 //   sim_thread {minflt, majflt, nivcsw, work_nvcsw, work_nvcsw_no_fault} (since the loop began)
 #pragma once
 

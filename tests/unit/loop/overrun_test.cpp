@@ -153,7 +153,7 @@ TEST(OverrunLog, AReaderGetsWholeRecordsWhileTheWriterRuns) {
 }
 
 TEST(ThreadCounters, SeeThisThreadsPageFaultsAndCpuTime) {
-  const TickCounters before = thread_totals();
+  const ThreadTotals before = thread_totals();
   const std::uint64_t cpu_before = thread_cpu_ns();
   // Fresh anonymous pages fault in on first touch.
   constexpr std::size_t kPages = 64, kPage = 4096;
@@ -165,34 +165,34 @@ TEST(ThreadCounters, SeeThisThreadsPageFaultsAndCpuTime) {
   const auto spin_until = std::chrono::steady_clock::now() + std::chrono::milliseconds(5);
   while (std::chrono::steady_clock::now() < spin_until) {
   }
-  const TickCounters d = thread_totals() - before;
+  const ThreadTotals d = thread_totals() - before;
   EXPECT_GE(d.minflt + d.majflt, kPages / 2) << "touching fresh pages counted no faults";
   EXPECT_GT(thread_cpu_ns() - cpu_before, 1'000'000u) << "5 ms of spinning used no CPU time";
 }
 
 TEST(ThreadCounters, SeeThisThreadsWaitsButNotAnotherThreads) {
   // A sleep is a voluntary switch: the thread gave up its CPU to wait.
-  const TickCounters before = thread_totals();
+  const ThreadTotals before = thread_totals();
   std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  EXPECT_GE((thread_totals() - before).work_nvcsw, 1u);
+  EXPECT_GE((thread_totals() - before).nvcsw, 1u);
   // Another thread's waits are not this one's.
-  const TickCounters mid = thread_totals();
+  const ThreadTotals mid = thread_totals();
   std::thread([] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); }).join();
-  const std::uint64_t joined = (thread_totals() - mid).work_nvcsw;  // join itself may wait once
+  const std::uint64_t joined = (thread_totals() - mid).nvcsw;  // join itself may wait once
   EXPECT_LE(joined, 1u);
 }
 
 TEST(ThreadCounters, ArithmeticNeverGoesNegative) {
-  TickCounters a, b;
+  ThreadTotals a, b;
   a.minflt = 5;
   b.minflt = 7;
   b.nivcsw = 3;
-  b.work_nvcsw = 2;
-  const TickCounters d = a - b;
+  b.nvcsw = 2;
+  const ThreadTotals d = a - b;
   EXPECT_EQ(d.minflt, 0u);
   EXPECT_EQ(d.nivcsw, 0u);
-  EXPECT_EQ(d.work_nvcsw, 0u);
-  EXPECT_EQ((b - a).work_nvcsw, 2u);
+  EXPECT_EQ(d.nvcsw, 0u);
+  EXPECT_EQ((b - a).nvcsw, 2u);
   EXPECT_EQ((b - a).minflt, 2u);
 }
 

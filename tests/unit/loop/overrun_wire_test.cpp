@@ -1,5 +1,5 @@
 // The overrun attribution reaches `sculptctl status --json` unchanged: the
-// stats go through proto::Stats (minor 2 and 3 fields) and come back as the same
+// stats go through proto::Stats (minor 2, 3 and 4 fields) and come back as the same
 // JSON object `sculptd --stats-json` writes.
 #include <gtest/gtest.h>
 
