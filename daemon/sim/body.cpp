@@ -1,6 +1,7 @@
 #include "sim/body.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -42,12 +43,12 @@ int choose_slots(const std::vector<int>& degree) {
   return 16;
 }
 
-// The packed AVX2 path moves more bytes per vertex (the packed copies on top
-// of x and w): it wins while a mesh stays in cache (measured here: 10–40k
-// vertices 1.5× faster than the portable kernel) and loses once memory
-// bandwidth is the limit (100k+ vertices). Above this size the AVX2 kernel
-// loads neighbours lane by lane from the arrays instead (FromArrays), and the
-// body saves the 64 bytes per vertex of the two packed buffers.
+// The double buffer of packed records moves more bytes per vertex (the packed
+// copies on top of x and w): it wins while a mesh stays in cache and loses
+// once memory bandwidth is the limit (100k+ vertices). Elastic bodies of any
+// size step through the ring instead, as fast and without the 64 bytes per
+// vertex; clay keeps the double buffer up to this size (its yields read the
+// whole step-start state after the sweep), and gathers from the arrays above.
 constexpr std::uint32_t kPackedMaxVertices = 65536;
 
 }  // namespace
@@ -74,6 +75,7 @@ std::size_t Body<S>::bytes() const {
   b += sx.bytes() + sy.bytes() + sz.bytes() + snapshot_grid.capacity() * sizeof(SnapshotGrid<S>);
   b += nbr.bytes();
   b += overflow.capacity() * sizeof(overflow[0]) + overflow_begin.capacity() * 4;
+  b += (far_vertices.capacity() + far_vertex_begin.capacity()) * 4 + far_records.bytes() + ring_stamp.capacity() * 8;
   b += (to_original.capacity() + to_internal.capacity()) * 4;
   b += triangles.capacity() * sizeof(BlockTriangle) + triangle_begin.capacity() * 4;
   b += far_triangles.capacity() * sizeof(Triangle) + far_triangle_begin.capacity() * 4;
@@ -241,15 +243,20 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n, S(0), arena);
   b.overflow_begin.assign(b.blocks + 1, 0);
   // Each row in sorted order: the near neighbours fill the slots, the rest
-  // (past the width, or farther than an int16 offset) go to the overflow list;
-  // padding is the vertex itself (offset 0, rest length 0: zero force).
+  // (past the width, or more than kRingReach blocks away, which also keeps
+  // the offset within 16 bits) go to the overflow list; padding is the vertex
+  // itself (offset 0, rest length 0: zero force).
+  static_assert((kernel::kRingReach + 1) * kBlock <= INT16_MAX);
+  auto near = [](std::uint32_t i, std::int32_t j) {
+    const std::uint32_t bi = i / kBlock, bj = static_cast<std::uint32_t>(j) / kBlock;
+    return (bi > bj ? bi - bj : bj - bi) <= kernel::kRingReach;
+  };
   for (std::uint32_t i = 0; i < n; ++i) {
     int s = 0;
     for (int e = 0; e < degree[i]; ++e) {
       const std::int32_t j = adj[i][e];
-      const std::int64_t off = std::int64_t{j} - i;
-      if (s < b.slots && off >= INT16_MIN && off <= INT16_MAX) {
-        b.nbr[static_cast<std::size_t>(s) * n + i] = static_cast<std::int16_t>(off);
+      if (s < b.slots && near(i, j)) {
+        b.nbr[static_cast<std::size_t>(s) * n + i] = static_cast<std::int16_t>(std::int64_t{j} - i);
         if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = rest_len(i, j);
         ++s;
       } else {
@@ -363,7 +370,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
 
   if constexpr (std::is_same_v<S, float>) {
     const bool want = options.packed == PackedRecords::always ||
-                      (options.packed == PackedRecords::by_size && n <= kPackedMaxVertices);
+                      (options.packed == PackedRecords::by_size && b.plastic && n <= kPackedMaxVertices);
     if (want) {
       for (auto& buf : b.packed) {
         buf.resize(8 * static_cast<std::size_t>(n), 0.0f, arena);  // zeros: at rest the velocity and (linear) u are 0
@@ -371,6 +378,33 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
           for (std::uint32_t i = 0; i < n; ++i) buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
       }
     }
+  }
+
+  // The ring's far table (float bodies without the packed buffers): the far
+  // ends that a row reads after their own block has stepped (blocks step in
+  // ascending order, so the ends behind).
+  if (std::is_same_v<S, float> && b.packed[0].empty() && options.ring) {
+    auto behind = [&](const kernel::Overflow<S>& o) { return !near(o.i, o.j) && static_cast<std::uint32_t>(o.j) < o.i; };
+    for (const auto& o : b.overflow)
+      if (behind(o)) b.far_vertices.push_back(static_cast<std::uint32_t>(o.j));
+    std::sort(b.far_vertices.begin(), b.far_vertices.end());
+    b.far_vertices.erase(std::unique(b.far_vertices.begin(), b.far_vertices.end()), b.far_vertices.end());
+    b.far_vertices.shrink_to_fit();
+    for (auto& o : b.overflow)
+      if (!near(o.i, o.j) && !behind(o))
+        o.far = kernel::kFarAhead;
+      else if (behind(o))
+        o.far = static_cast<std::uint32_t>(
+            std::lower_bound(b.far_vertices.begin(), b.far_vertices.end(), static_cast<std::uint32_t>(o.j)) -
+            b.far_vertices.begin());
+    b.far_vertex_begin.assign(b.blocks + 1, 0);
+    for (std::uint32_t v : b.far_vertices) ++b.far_vertex_begin[v / kBlock + 1];
+    std::partial_sum(b.far_vertex_begin.begin(), b.far_vertex_begin.end(), b.far_vertex_begin.begin());
+    b.far_records.resize(8 * b.far_vertices.size(), S(0));
+    b.ring_stamp.assign(b.blocks, 0);
+    // A body of fewer blocks than the ring takes the next power of two: every
+    // block its own place, and no more memory than it needs.
+    b.ring_blocks = std::min(kernel::kRingBlocks, std::bit_ceil(b.blocks));
   }
 
   b.tools.resize(static_cast<std::size_t>(std::max(0, tool_slots)));

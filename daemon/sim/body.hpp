@@ -16,14 +16,20 @@
 
 namespace sculpt::sim {
 
-// The packed neighbour records of the AVX2 path (float only): 64 bytes per
-// vertex for a faster step (docs/simulation.md has the measurements).
+// The double buffer of packed neighbour records (float only, 64 bytes per
+// vertex): by_size gives it to clay bodies up to 65 536 vertices; elastic
+// bodies step through the ring of records instead (BodyOptions::ring).
+// docs/simulation.md has the measurements.
 enum class PackedRecords { by_size, always, never };
 
 struct BodyOptions {
   std::vector<std::uint32_t> pinned;  // original vertex indices held at their rest position
   int max_grabbed = 4096;             // per tool: vertices one grab can hold (preallocated)
   PackedRecords packed = PackedRecords::by_size;
+  // Float bodies without packed records step through the ring of packed
+  // records (kernel::kRingBlocks); false: they gather neighbours from the
+  // arrays instead, through the acceleration pool (benchmarks compare the two).
+  bool ring = true;
 };
 
 struct BlockTriangle {
@@ -113,12 +119,24 @@ struct Body {
   AlignedBuffer<S> packed[2];
   int packed_cur = 0;
 
-  // Slot s of vertex i: neighbour − i (16 bits: springs reaching farther in
-  // the Morton order go to the overflow list), slot-major, slots × n.
+  // Slot s of vertex i: neighbour − i, slot-major, slots × n. Springs whose
+  // ends lie more than kernel::kRingReach blocks apart go to the overflow list.
+  // (So do a high-degree vertex's springs past the ELL width.)
   AlignedBuffer<std::int16_t> nbr;
   AlignedBuffer<S> rest_length;     // slots × n (spring model only)
   std::vector<kernel::Overflow<S>> overflow;
   std::vector<std::uint32_t> overflow_begin;  // blocks + 1
+  // The ring of packed records (float bodies without the packed buffers; see
+  // kernel::ForceArgs::ring_mask): the vertices that overflow springs reach
+  // from beyond kRingReach blocks (Overflow::far), grouped by block, sorted;
+  // their records of the substep's start, saved when their block is packed into
+  // the ring; and per block the ring_epoch (one per substep) it was last packed in.
+  std::vector<std::uint32_t> far_vertices;
+  std::vector<std::uint32_t> far_vertex_begin;  // blocks + 1
+  AlignedBuffer<S> far_records;                 // 8 per far vertex
+  std::vector<std::uint64_t> ring_stamp;        // blocks; empty: the body never takes the ring
+  std::uint64_t ring_epoch = 0;
+  std::uint32_t ring_blocks = 0;                // its ring's size: min(kRingBlocks, blocks rounded up to 2^k)
 
   // Triangles, grouped by owning block (the block of their lowest vertex), as
   // their vertices' offsets from the block's first vertex: 6 bytes instead of

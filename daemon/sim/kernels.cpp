@@ -142,7 +142,9 @@ template <class S, Velocity V>
   }
 }
 
-template <class S, ForceModel M, Velocity V>
+// Ring: neighbours from the ring of packed records (a.ring_mask), which hold
+// what the arrays would give (x or u = x − r, w·1/dt): the same bits.
+template <class S, ForceModel M, Velocity V, bool Ring = false>
 [[gnu::always_inline]] inline void slots_generic(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
                                                  BlockScratch<S>& w) {
   const S* __restrict X = A.x;
@@ -162,25 +164,23 @@ template <class S, ForceModel M, Velocity V>
     for (std::uint32_t i = 0; i < cnt; ++i) {
       const std::uint32_t v = begin + i;
       const std::int32_t j = static_cast<std::int32_t>(v) + nb[i];
-      S ujx, ujy, ujz;
-      if constexpr (V == Velocity::step) {
-        ujx = WX[j] * inv_dt;
-        ujy = WY[j] * inv_dt;
-        ujz = WZ[j] * inv_dt;
+      S xj, yj, zj, ujx, ujy, ujz;  // what the spring compares: p (linear: u = p − r) and the velocity
+      if constexpr (Ring) {
+        const S* q = A.packed + 8 * static_cast<std::size_t>(static_cast<std::uint32_t>(j) & A.ring_mask);
+        xj = q[0], yj = q[1], zj = q[2], ujx = q[4], ujy = q[5], ujz = q[6];
       } else {
-        ujx = WX[j];
-        ujy = WY[j];
-        ujz = WZ[j];
+        // (p_j − p_i) − (r_j − r_i) written as u_j − u_i with u = p − r: what the
+        // packed path reads, so both paths round alike.
+        if constexpr (M == ForceModel::linear) xj = X[j] - RX[j], yj = Y[j] - RY[j], zj = Z[j] - RZ[j];
+        else xj = X[j], yj = Y[j], zj = Z[j];
+        if constexpr (V == Velocity::step) ujx = WX[j] * inv_dt, ujy = WY[j] * inv_dt, ujz = WZ[j] * inv_dt;
+        else ujx = WX[j], ujy = WY[j], ujz = WZ[j];
       }
       S dx, dy, dz, len = 0;
       if constexpr (M == ForceModel::linear) {
-        // (p_j − p_i) − (r_j − r_i) written as u_j − u_i with u = p − r: what the
-        // packed path reads, so both paths round alike.
-        dx = (X[j] - RX[j]) - (X[v] - RX[v]);
-        dy = (Y[j] - RY[j]) - (Y[v] - RY[v]);
-        dz = (Z[j] - RZ[j]) - (Z[v] - RZ[v]);
+        dx = xj - (X[v] - RX[v]), dy = yj - (Y[v] - RY[v]), dz = zj - (Z[v] - RZ[v]);
       } else {
-        dx = X[j] - X[v], dy = Y[j] - Y[v], dz = Z[j] - Z[v];
+        dx = xj - X[v], dy = yj - Y[v], dz = zj - Z[v];
         len = L[i];
       }
       pair_force<S, M>(dx, dy, dz, ujx - w.vx[i], ujy - w.vy[i], ujz - w.vz[i], 0, 0, 0, len, k, c, quarter_k, w.fx[i],
@@ -190,8 +190,11 @@ template <class S, ForceModel M, Velocity V>
 }
 
 // High-degree extras (scalar). FromPacked: neighbours from the packed buffer
-// (the fused pass has already overwritten x and w of earlier blocks).
-template <class S, ForceModel M, Velocity V, bool FromPacked>
+// (the fused pass has already overwritten x and w of earlier blocks); with
+// Ring, from the ring, or for a far spring from the far records once its end's
+// block has been packed this substep (it may have moved since), else from the
+// arrays (it has not).
+template <class S, ForceModel M, Velocity V, bool FromPacked, bool Ring = false>
 [[gnu::always_inline]] inline void overflow_block(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t ob,
                                                   std::uint32_t oe, BlockScratch<S>& w) {
   const S* __restrict X = A.x;
@@ -209,8 +212,15 @@ template <class S, ForceModel M, Velocity V, bool FromPacked>
     const std::uint32_t v = e.i, i = v - begin;
     const std::int32_t j = e.j;
     S xj, yj, zj, ujx, ujy, ujz;
-    if constexpr (FromPacked) {
-      const S* q = A.packed + 8 * static_cast<std::size_t>(j);
+    const S* q = nullptr;  // j's record, if it comes from one
+    if constexpr (FromPacked && Ring) {
+      if (e.far == kNotFar) q = A.packed + 8 * static_cast<std::size_t>(static_cast<std::uint32_t>(j) & A.ring_mask);
+      else if (e.far != kFarAhead && A.ring_stamp[static_cast<std::uint32_t>(j) / kBlock] == A.ring_epoch)
+        q = A.far_records + 8 * static_cast<std::size_t>(e.far);
+    } else if constexpr (FromPacked) {
+      q = A.packed + 8 * static_cast<std::size_t>(j);
+    }
+    if (q) {
       xj = q[0], yj = q[1], zj = q[2], ujx = q[4], ujy = q[5], ujz = q[6];
     } else {
       xj = X[j], yj = Y[j], zj = Z[j];
@@ -226,7 +236,7 @@ template <class S, ForceModel M, Velocity V, bool FromPacked>
     }
     S dx, dy, dz;
     if constexpr (M == ForceModel::linear) {
-      if constexpr (!FromPacked) xj = X[j] - RX[j], yj = Y[j] - RY[j], zj = Z[j] - RZ[j];  // packed holds u already
+      if (!q) xj = X[j] - RX[j], yj = Y[j] - RY[j], zj = Z[j] - RZ[j];  // records hold u already
       dx = xj - (X[v] - RX[v]), dy = yj - (Y[v] - RY[v]), dz = zj - (Z[v] - RZ[v]);
     } else {
       dx = xj - X[v], dy = yj - Y[v], dz = zj - Z[v];
@@ -252,14 +262,14 @@ template <class S>
   return sum8(w.pe, cnt);
 }
 
-template <class S, ForceModel M, Velocity V>
+template <class S, ForceModel M, Velocity V, bool Ring = false>
 [[gnu::always_inline]] inline S forces_impl(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t end,
                                             std::uint32_t ob, std::uint32_t oe) {
   BlockScratch<S> w;
   const std::uint32_t cnt = end - begin;
   init_block<S, V>(A, begin, cnt, w);
-  slots_generic<S, M, V>(A, begin, cnt, w);
-  overflow_block<S, M, V, false>(A, begin, ob, oe, w);
+  slots_generic<S, M, V, Ring>(A, begin, cnt, w);
+  overflow_block<S, M, V, Ring, Ring>(A, begin, ob, oe, w);
   return write_acc<S>(A, begin, cnt, w);
 }
 
@@ -267,6 +277,13 @@ template <class S>
 [[gnu::always_inline]] inline S dispatch_forces(const ForceArgs<S>& a, ForceModel model, Velocity vel,
                                                 std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                 std::uint32_t oe) {
+  if (a.ring_mask) {
+    if (model == ForceModel::spring)
+      return vel == Velocity::step ? forces_impl<S, ForceModel::spring, Velocity::step, true>(a, begin, end, ob, oe)
+                                   : forces_impl<S, ForceModel::spring, Velocity::stored, true>(a, begin, end, ob, oe);
+    return vel == Velocity::step ? forces_impl<S, ForceModel::linear, Velocity::step, true>(a, begin, end, ob, oe)
+                                 : forces_impl<S, ForceModel::linear, Velocity::stored, true>(a, begin, end, ob, oe);
+  }
   if (model == ForceModel::spring) {
     return vel == Velocity::step
                ? forces_impl<S, ForceModel::spring, Velocity::step>(a, begin, end, ob, oe)
@@ -450,13 +467,24 @@ __attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float
 // offsets from the group's first vertex) as what pair_force compares: the
 // position (linear model: u = p − r) and the velocity.
 // From the packed records: two 16-byte loads and a transpose per eight.
+// With Ring, every neighbour lies within kRingReach blocks (the ELL holds no
+// farther one), so its record is at its index masked into the ring.
+template <bool Ring = false>
 struct FromRecords {
-  const float* P8;  // the group's first vertex's record
+  const float* P;       // the records (Ring: the ring)
+  std::uint32_t v;      // the group's first vertex
+  std::uint32_t mask;   // Ring: the ring's index mask
   __attribute__((target("avx2"), always_inline)) void operator()(const std::int16_t* nb, __m256& xj, __m256& yj,
                                                                  __m256& zj, __m256& vxj, __m256& vyj,
                                                                  __m256& vzj) const {
     const float* p[8];
-    for (int l = 0; l < 8; ++l) p[l] = P8 + 8 * static_cast<std::ptrdiff_t>(l + nb[l]);
+    if constexpr (Ring) {
+      for (int l = 0; l < 8; ++l)
+        p[l] = P + 8 * static_cast<std::size_t>((v + static_cast<std::uint32_t>(l + nb[l])) & mask);
+    } else {
+      const float* P8 = P + 8 * static_cast<std::size_t>(v);
+      for (int l = 0; l < 8; ++l) p[l] = P8 + 8 * static_cast<std::ptrdiff_t>(l + nb[l]);
+    }
     gather_lanes(p, 0, xj, yj, zj);
     gather_lanes(p, 4, vxj, vyj, vzj);
   }
@@ -536,7 +564,7 @@ __attribute__((target("avx2"), always_inline)) inline void own_position8(const F
 // ones) lane by lane from the arrays at vertex + 16-bit offset, where the
 // compiler's own loop (forces_portable) extracts each offset from a vector
 // first (~18% more instructions). Identical bits either way.
-template <ForceModel M, Velocity V, bool Packed>
+template <ForceModel M, Velocity V, bool Packed, bool Ring = false>
 __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const ForceArgs<float>& A, std::uint32_t begin,
                                                                        std::uint32_t cnt, BlockScratch<float>& w) {
   const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
@@ -555,9 +583,9 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     const __m256 vxi = _mm256_load_ps(w.vx + i), vyi = _mm256_load_ps(w.vy + i), vzi = _mm256_load_ps(w.vz + i);
     __m256 fx, fy, fz, pe;
     load_sums8(w, i, fx, fy, fz, pe);
-    using Fetch = std::conditional_t<Packed, FromRecords, FromArrays<M, V>>;
+    using Fetch = std::conditional_t<Packed, FromRecords<Ring>, FromArrays<M, V>>;
     Fetch fetch;
-    if constexpr (Packed) fetch = {A.packed + 8 * static_cast<std::size_t>(v)};
+    if constexpr (Packed) fetch = {A.packed, v, A.ring_mask};
     else fetch = {&A, v};
     accumulate_slots8<M>(fetch, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
                          tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
@@ -570,7 +598,8 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
       const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
       float xj, yj, zj, vxj, vyj, vzj;
       if constexpr (Packed) {
-        const float* pj = A.packed + 8 * static_cast<std::size_t>(j);
+        const float* pj = A.packed + 8 * static_cast<std::size_t>(Ring ? static_cast<std::uint32_t>(j) & A.ring_mask
+                                                                       : static_cast<std::uint32_t>(j));
         xj = pj[0], yj = pj[1], zj = pj[2], vxj = pj[4], vyj = pj[5], vzj = pj[6];
       } else {
         xj = A.x[j], yj = A.y[j], zj = A.z[j], vxj = A.wx[j], vyj = A.wy[j], vzj = A.wz[j];
@@ -588,18 +617,18 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
 
 // One block's forces on the AVX2 paths: neighbours from the packed records,
 // or (Packed = false) lane by lane from the arrays.
-template <ForceModel M, Velocity V, bool Packed = true>
+template <ForceModel M, Velocity V, bool Packed = true, bool Ring = false>
 __attribute__((target("avx2"), always_inline)) inline void forces_avx2_block(const ForceArgs<float>& A,
                                                                               std::uint32_t begin, std::uint32_t cnt,
                                                                               std::uint32_t ob, std::uint32_t oe,
                                                                               BlockScratch<float>& w) {
   init_block<float, V>(A, begin, cnt, w);
-  slots_avx2<M, V, Packed>(A, begin, cnt, w);
-  overflow_block<float, M, V, Packed>(A, begin, ob, oe, w);
+  slots_avx2<M, V, Packed, Ring>(A, begin, cnt, w);
+  overflow_block<float, M, V, Packed, Ring>(A, begin, ob, oe, w);
 }
 
 // Forces for one block of a float body on an AVX2 CPU.
-template <bool Packed>
+template <bool Packed, bool Ring = false>
 __attribute__((target("avx2"))) float forces_avx2(const ForceArgs<float>& A, ForceModel model, Velocity vel,
                                                   std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                   std::uint32_t oe) {
@@ -607,11 +636,11 @@ __attribute__((target("avx2"))) float forces_avx2(const ForceArgs<float>& A, For
   const std::uint32_t cnt = end - begin;
   const bool bd = vel == Velocity::step;
   if (model == ForceModel::spring) {
-    if (bd) forces_avx2_block<ForceModel::spring, Velocity::step, Packed>(A, begin, cnt, ob, oe, w);
-    else forces_avx2_block<ForceModel::spring, Velocity::stored, Packed>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::spring, Velocity::step, Packed, Ring>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::spring, Velocity::stored, Packed, Ring>(A, begin, cnt, ob, oe, w);
   } else {
-    if (bd) forces_avx2_block<ForceModel::linear, Velocity::step, Packed>(A, begin, cnt, ob, oe, w);
-    else forces_avx2_block<ForceModel::linear, Velocity::stored, Packed>(A, begin, cnt, ob, oe, w);
+    if (bd) forces_avx2_block<ForceModel::linear, Velocity::step, Packed, Ring>(A, begin, cnt, ob, oe, w);
+    else forces_avx2_block<ForceModel::linear, Velocity::stored, Packed, Ring>(A, begin, cnt, ob, oe, w);
   }
   return write_acc<float>(A, begin, cnt, w);
 }
@@ -647,6 +676,7 @@ float forces(const ForceArgs<float>& a, ForceModel model, Velocity vel, std::uin
              std::uint32_t ob, std::uint32_t oe) {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   if (avx2_paths_active()) {
+    if (a.packed && a.ring_mask) return forces_avx2<true, true>(a, model, vel, begin, end, ob, oe);
     return a.packed ? forces_avx2<true>(a, model, vel, begin, end, ob, oe)
                     : forces_avx2<false>(a, model, vel, begin, end, ob, oe);
   }
@@ -662,11 +692,12 @@ SCULPT_CLONES double forces(const ForceArgs<double>& a, ForceModel model, Veloci
 
 namespace {
 
+// out: vertex begin's record.
 template <Velocity V, ForceModel M>
-[[gnu::always_inline]] inline void pack_loop(const ForceArgs<float>& A, float* __restrict packed, std::uint32_t begin,
+[[gnu::always_inline]] inline void pack_loop(const ForceArgs<float>& A, float* __restrict out, std::uint32_t begin,
                                              std::uint32_t end) {
   for (std::uint32_t i = begin; i < end; ++i) {
-    float* q = packed + 8 * static_cast<std::size_t>(i);
+    float* q = out + 8 * static_cast<std::size_t>(i - begin);
     if constexpr (M == ForceModel::linear) q[0] = A.x[i] - A.rx[i], q[1] = A.y[i] - A.ry[i], q[2] = A.z[i] - A.rz[i];
     else q[0] = A.x[i], q[1] = A.y[i], q[2] = A.z[i];
     q[3] = 0.0f;
@@ -712,8 +743,9 @@ __attribute__((target("avx2"), always_inline)) inline void store_packed8(float* 
 
 // Eight vertices at a time: six rows (x y z vx vy vz) and two zero rows,
 // transposed 8×8 into eight {x,y,z,0,vx,vy,vz,0} records.
+// out: vertex begin's record.
 template <Velocity V, ForceModel M>
-__attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float* __restrict packed,
+__attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float* __restrict out,
                                                std::uint32_t begin, std::uint32_t end) {
   std::uint32_t i = begin;
   const __m256 inv_dt = _mm256_set1_ps(A.inv_dt);
@@ -733,9 +765,9 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
     } else {
       vx = _mm256_loadu_ps(A.wx + i), vy = _mm256_loadu_ps(A.wy + i), vz = _mm256_loadu_ps(A.wz + i);
     }
-    store_packed8(packed + 8 * static_cast<std::size_t>(i), ox, oy, oz, vx, vy, vz);
+    store_packed8(out + 8 * static_cast<std::size_t>(i - begin), ox, oy, oz, vx, vy, vz);
   }
-  pack_loop<V, M>(A, packed, i, end);
+  pack_loop<V, M>(A, out + 8 * static_cast<std::size_t>(i - begin), i, end);
 }
 #endif
 
@@ -743,6 +775,11 @@ __attribute__((target("avx2"))) void pack_avx2(const ForceArgs<float>& A, float*
 
 void pack(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
           std::uint32_t end) {
+  pack_into(A, model, vel, packed + 8 * static_cast<std::size_t>(begin), begin, end);
+}
+
+void pack_into(const ForceArgs<float>& A, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
+               std::uint32_t end) {
   const bool bd = vel == Velocity::step, lin = model == ForceModel::linear;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   if (g_has_avx2) {
@@ -773,13 +810,13 @@ void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t 
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
 namespace {
 
-template <ForceModel M, Velocity V, Integrator I>
+template <ForceModel M, Velocity V, Integrator I, bool Ring = false>
 __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<float>& A, const IntegrateArgs<float>& In,
                                                             std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                                             std::uint32_t oe, float* packed_next, float& potential) {
   BlockScratch<float> w;
   const std::uint32_t cnt = end - begin;
-  forces_avx2_block<M, V>(A, begin, cnt, ob, oe, w);
+  forces_avx2_block<M, V, true, Ring>(A, begin, cnt, ob, oe, w);
   potential = sum8(w.pe, cnt);
   const float inv_m = A.inv_mass;
   for (std::uint32_t i = 0; i < cnt; ++i) {  // the same a = f/m the acceleration buffer would hold
@@ -794,7 +831,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<floa
   std::memcpy(bits, sp, sizeof(float) * cnt);
   std::uint32_t m = 0;
   for (std::uint32_t i = 0; i < cnt; ++i) m = bits[i] > m ? bits[i] : m;
-  pack_avx2<V, M>(A, packed_next, begin, end);
+  if constexpr (!Ring) pack_avx2<V, M>(A, packed_next + 8 * static_cast<std::size_t>(begin), begin, end);
   return {sum8(sp, cnt), m};
 }
 
@@ -823,7 +860,7 @@ struct Finish8 {
   __m256 sp_sum;
   __m256i sp_max;
 };
-template <ForceModel M, Integrator I>
+template <ForceModel M, Integrator I, bool Ring = false>
 __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, std::uint32_t i, __m256 fx, __m256 fy,
                                                                   __m256 fz) {
   const __m256 inv_m = F.inv_m, dt = F.dt, dt2 = F.dt2, in_inv_dt = F.in_inv_dt;
@@ -865,6 +902,7 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
   const __m256 sp = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ux, ux), _mm256_mul_ps(uy, uy)), _mm256_mul_ps(uz, uz));
   F.sp_sum = _mm256_add_ps(F.sp_sum, sp);
   F.sp_max = _mm256_max_epu32(F.sp_max, _mm256_castps_si256(sp));
+  if constexpr (Ring) return;  // the ring keeps the step's start; nothing reads the new state this substep
   // What pack_avx2 would compute from the arrays just written: for Verlet
   // w·inv_dt with w = d is ux itself (World sets both inv_dt as 1/dts), so
   // the velocity rows are ux, uy, uz.
@@ -884,7 +922,7 @@ __attribute__((target("avx2"), always_inline)) inline void finish8(Finish8& F, s
 // without the scalar prologue loops, the acceleration round trip and the
 // re-reads. Blocks with overflow neighbours keep the forces in the scratch
 // until their extras are added (a vertex sums slots first, then extras).
-template <ForceModel M, Velocity V, Integrator I, bool Yield = false>
+template <ForceModel M, Velocity V, Integrator I, bool Yield = false, bool Ring = false>
 __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const ForceArgs<float>& A,
                                                                        const IntegrateArgs<float>& In,
                                                                        std::uint32_t begin, std::uint32_t ob,
@@ -927,7 +965,8 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
   BlockScratch<float> w;
   __m256 pe_sum = _mm256_setzero_ps();
   Finish8 F{inv_m, dt, dt2, in_inv_dt, X, Y, Z, WX, WY, WZ, RX, RY, RZ,
-            packed_next + 8 * static_cast<std::size_t>(begin), _mm256_setzero_ps(), _mm256_setzero_si256()};
+            Ring ? nullptr : packed_next + 8 * static_cast<std::size_t>(begin), _mm256_setzero_ps(),
+            _mm256_setzero_si256()};
 
 
   for (std::uint32_t i = 0; i < kBlock; i += 8) {
@@ -957,7 +996,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
     }
     __m256 xi = x, yi = y, zi = z;
     if constexpr (M == ForceModel::linear) xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
-    accumulate_slots8<M, Yield>(FromRecords{P + 8 * static_cast<std::size_t>(begin + i)}, nb0 + i,
+    accumulate_slots8<M, Yield>(FromRecords<Ring>{P, begin + i, A.ring_mask}, nb0 + i,
                                 M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
                                 one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe, up8, down8,
                                 marks ? marks + kBlock / 8 + i / 8 : nullptr);
@@ -967,14 +1006,14 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
       _mm256_store_ps(w.vx + i, vx), _mm256_store_ps(w.vy + i, vy), _mm256_store_ps(w.vz + i, vz);
     } else {
       pe_sum = _mm256_add_ps(pe_sum, pe);
-      finish8<M, I>(F, i, fx, fy, fz);
+      finish8<M, I, Ring>(F, i, fx, fy, fz);
     }
   }
   if (extras) {
-    overflow_block<float, M, V, true>(A, begin, ob, oe, w);
+    overflow_block<float, M, V, true, Ring>(A, begin, ob, oe, w);
     for (std::uint32_t i = 0; i < kBlock; i += 8) {
       pe_sum = _mm256_add_ps(pe_sum, _mm256_load_ps(w.pe + i));
-      finish8<M, I>(F, i, _mm256_load_ps(w.fx + i), _mm256_load_ps(w.fy + i), _mm256_load_ps(w.fz + i));
+      finish8<M, I, Ring>(F, i, _mm256_load_ps(w.fx + i), _mm256_load_ps(w.fy + i), _mm256_load_ps(w.fz + i));
     }
   }
   potential = tree_sum8(pe_sum);
@@ -989,12 +1028,13 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
                                   std::uint32_t oe, float* packed_next, float& potential, const YieldArgs* yield) {
   const bool spring = model == ForceModel::spring;
   [[maybe_unused]] const bool whole = end - begin == kBlock && !g_block_pieces.load(std::memory_order_relaxed);
+  [[maybe_unused]] const bool avx2 = avx2_paths_active();
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
   constexpr auto BD = Velocity::step;
   constexpr auto ST = Velocity::stored;
   constexpr auto PV = Integrator::position_verlet;
   constexpr auto SE = Integrator::symplectic_euler;
-  if (yield && spring && whole) {  // the marks come with the forces
+  if (avx2 && !a.ring_mask && yield && spring && whole) {  // the marks come with the forces
     if (integrator == PV)
       return fused_full_block_avx2<ForceModel::spring, BD, PV, true>(a, in, begin, ob, oe, packed_next, potential,
                                                                       yield);
@@ -1006,8 +1046,28 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
   // Otherwise from the state before this block moves.
   if (yield) yield_candidates(a, yield->yield, yield->anchor_limit, spring, begin, end, yield->mask);
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+  if (avx2 && a.ring_mask) {  // elastic only (World keeps clay off the ring): no marks to make
+    if (whole) {
+      if (integrator == PV)
+        return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV, false, true>(a, in, begin, ob, oe, nullptr,
+                                                                                        potential)
+                      : fused_full_block_avx2<ForceModel::linear, BD, PV, false, true>(a, in, begin, ob, oe, nullptr,
+                                                                                        potential);
+      if (integrator == SE)
+        return spring ? fused_full_block_avx2<ForceModel::spring, ST, SE, false, true>(a, in, begin, ob, oe, nullptr,
+                                                                                        potential)
+                      : fused_full_block_avx2<ForceModel::linear, ST, SE, false, true>(a, in, begin, ob, oe, nullptr,
+                                                                                        potential);
+    }
+    if (integrator == PV)
+      return spring ? fused_avx2<ForceModel::spring, BD, PV, true>(a, in, begin, end, ob, oe, nullptr, potential)
+                    : fused_avx2<ForceModel::linear, BD, PV, true>(a, in, begin, end, ob, oe, nullptr, potential);
+    if (integrator == SE)
+      return spring ? fused_avx2<ForceModel::spring, ST, SE, true>(a, in, begin, end, ob, oe, nullptr, potential)
+                    : fused_avx2<ForceModel::linear, ST, SE, true>(a, in, begin, end, ob, oe, nullptr, potential);
+  }
   // Every block but a body's last one (unless the testing knob asks for the pieces).
-  if (whole) {
+  if (avx2 && !a.ring_mask && whole) {
     if (integrator == PV)
       return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV>(a, in, begin, ob, oe, packed_next, potential)
                     : fused_full_block_avx2<ForceModel::linear, BD, PV>(a, in, begin, ob, oe, packed_next, potential);
@@ -1016,19 +1076,19 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
                     : fused_full_block_avx2<ForceModel::linear, ST, SE>(a, in, begin, ob, oe, packed_next, potential);
   }
   // A body's last, partial block.
-  if (integrator == PV)
+  if (avx2 && !a.ring_mask && integrator == PV)
     return spring ? fused_avx2<ForceModel::spring, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential)
                   : fused_avx2<ForceModel::linear, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential);
-  if (integrator == SE)
+  if (avx2 && !a.ring_mask && integrator == SE)
     return spring ? fused_avx2<ForceModel::spring, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential)
                   : fused_avx2<ForceModel::linear, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential);
 #endif
-  // Not reachable when avx2_paths_active(); keep it correct anyway (unfused order).
+  // The portable clones (the ring's path without AVX2), in the unfused order.
   const Velocity vel =
       integrator == Integrator::position_verlet ? Velocity::step : Velocity::stored;
   potential = forces(a, model, vel, begin, end, ob, oe);
   const BlockSums<float> sums = integrate(in, integrator, begin, end);
-  pack(a, model, vel, packed_next, begin, end);
+  if (packed_next) pack(a, model, vel, packed_next, begin, end);
   return sums;
 }
 

@@ -18,11 +18,28 @@ namespace sculpt::sim::kernel {
 // Vertices per block: the unit of sleeping, broadphase and change logging.
 inline constexpr std::uint32_t kBlock = 128;
 
+// The ring of packed records (float, AVX2, big elastic bodies): block c's
+// records sit at ring block c mod kRingBlocks while the blocks within
+// kRingReach of it step. A spring whose ends lie farther apart in blocks is
+// never in an ELL slot (every body, so every path sums the same springs in
+// the same order); it goes to the overflow list, and the ring reads its far
+// end from Body::far_records. docs/simulation.md has the measurements.
+inline constexpr std::uint32_t kRingBlocks = 64;
+inline constexpr std::uint32_t kRingReach = kRingBlocks / 2 - 1;
+// Overflow::far of a spring within kRingReach blocks, and of one whose far
+// end j lies ahead (its block steps after i's, so j's arrays still hold the
+// substep's start when i reads it).
+inline constexpr std::uint32_t kNotFar = 0xffffffffu;
+inline constexpr std::uint32_t kFarAhead = 0xfffffffeu;
+
 template <class S>
 struct Overflow {
   std::uint32_t i;  // the vertex whose row this extra neighbour belongs to
   std::int32_t j;   // the neighbour
   S rest_length;
+  // For the ring: kNotFar, kFarAhead, or (j more than kRingReach blocks
+  // behind i) j's entry in Body::far_vertices.
+  std::uint32_t far = kNotFar;
 };
 
 // What the w arrays hold: position Verlet keeps its last step d = x − x_prev
@@ -48,6 +65,16 @@ struct ForceArgs {
   // aligned, kept current by pack(). Lets the AVX2 path fetch a neighbour with
   // two 16-byte loads instead of six scalar gathers. Same results, bit for bit.
   const S* packed = nullptr;
+  // Optional (float): packed is a ring of kRingBlocks blocks (vertex i's record
+  // at 8·(i & ring_mask)), holding the state the step started from for every
+  // block within kRingReach of the one stepping. A far spring's end j reads
+  // its step-start state from far_records[8·far] once j's block has been
+  // packed this substep (ring_stamp[block] == ring_epoch: it may have moved
+  // since), else (and always for kFarAhead) from the arrays (it has not moved).
+  std::uint32_t ring_mask = 0;  // 0: packed covers the whole body
+  const std::uint64_t* ring_stamp = nullptr;
+  std::uint64_t ring_epoch = 0;
+  const S* far_records = nullptr;
 };
 
 template <class S>
@@ -86,12 +113,17 @@ void vv_open(const IntegrateArgs<double>& a, std::uint32_t begin, std::uint32_t 
 // linear model packs the displacement u = p − r, all it needs of a neighbour).
 void pack(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* packed, std::uint32_t begin,
           std::uint32_t end);
+// The same records into out[8(i − begin) .. 8(i − begin) + 7] (a ring block).
+void pack_into(const ForceArgs<float>& a, ForceModel model, Velocity vel, float* out, std::uint32_t begin,
+               std::uint32_t end);
 
 // The fused pass for one block (float, position Verlet or symplectic Euler,
 // AVX2 path): forces with neighbours from a.packed, integrate in place, write
 // the block's new state into packed_next. Same bits as forces() + integrate()
 // + pack() when a.inv_dt == in.inv_dt (World passes 1/dt to both, so the
 // packed velocities are the integrator's own); skips the acceleration buffer.
+// With a ring (a.ring_mask), packed_next is null: the ring already holds the
+// state the step started from, and nothing is packed after the move.
 // A whole block (kBlock vertices) goes through in one pass of eight-vertex
 // groups whose state stays in registers from the anchor to the packed record.
 //

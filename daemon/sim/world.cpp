@@ -77,8 +77,17 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   // between every block's forces and any block's move: both need ax..az for
   // every vertex. The rest integrate each block as soon as no later block
   // reads it, from a pool slot.
+  // Bodies that step through the ring need neither (the ring's grabbed blocks
+  // take one slot).
+  const bool ring = !b.ring_stamp.empty() && settings_.integrator != Integrator::velocity_verlet && !b.plastic;
   if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
     for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), &b.arena);
+  } else if (ring) {
+    if (acc_free_.empty()) {
+      acc_pool_.resize(3 * std::size_t{kBlock});
+      acc_free_.assign(1, 0);
+      pending_.resize(1);
+    }
   } else if (acc_free_.size() < b.pending_capacity) {
     acc_pool_.resize(3 * std::size_t{kBlock} * b.pending_capacity);
     acc_free_.resize(b.pending_capacity);
@@ -97,6 +106,8 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   pe_scratch_.resize(std::max<std::size_t>(pe_scratch_.size(), added.blocks));
   outcode_stamp_.resize(pe_scratch_.size());
   outcode_.resize(std::max<std::size_t>(outcode_.size(), added.n));
+  if (ring && ring_.size() < 8 * std::size_t{added.ring_blocks} * kBlock)
+    ring_.resize(8 * std::size_t{added.ring_blocks} * kBlock);  // every body steps through it in turn
   // Clay: one yield mask per awake block (the fused pass marks them all before any is applied).
   if (added.plastic)
     yield_masks_.resize(std::max(yield_masks_.size(), yield_mask_bytes(added) * added.blocks));
@@ -708,6 +719,12 @@ void World<S>::step_body(std::uint32_t bi) {
   const bool clay = b.plastic;
   const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::avx2_paths_active() &&
                      !(clay && m.model == ForceModel::linear);
+  // Big elastic float bodies (no packed buffers) take the same single pass
+  // through a ring of packed records instead: blocks are packed into it, from
+  // the arrays that still hold the substep's start, just before the first
+  // block that reads them steps (see kernel::ForceArgs::ring_mask).
+  const bool ring = std::is_same_v<S, float> && !b.ring_stamp.empty() && !ring_.empty() && !fused &&
+                    integ != Integrator::velocity_verlet && !clay;
   const std::size_t mask_bytes = yield_mask_bytes(b);
   auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };  // clay bodies only
   for (int sub = 0; sub < nsub; ++sub) {
@@ -825,6 +842,54 @@ void World<S>::step_body(std::uint32_t bi) {
             plastic_apply(b, b.awake_list[q], mask_of(q), b.packed[b.packed_cur].data());
         if (grabbing) mark_grabbed(false);
         b.packed_cur ^= 1;
+      }
+    } else if (ring) {
+      if constexpr (std::is_same_v<S, float>) {
+        const std::uint32_t mask = b.ring_blocks * kBlock - 1;
+        fa.packed = ring_.data();
+        fa.ring_mask = mask;
+        fa.ring_stamp = b.ring_stamp.data();
+        fa.ring_epoch = ++b.ring_epoch;
+        fa.far_records = b.far_records.data();
+        // Block c into the ring (and its far vertices' records aside) once
+        // per substep, before anything moves it: every block within
+        // kRingReach of the stepping one holds its ring place until the
+        // stepping reaches kRingReach past it, as the awake list ascends.
+        auto into_ring = [&](std::uint32_t c) {
+          if (b.ring_stamp[c] == fa.ring_epoch) return;
+          b.ring_stamp[c] = fa.ring_epoch;
+          const std::uint32_t c0 = b.begin_of(c);
+          float* records = ring_.data() + 8 * std::size_t{c0 & mask};
+          kernel::pack_into(fa, m.model, vel, records, c0, b.end_of(c));
+          for (std::uint32_t k = b.far_vertex_begin[c]; k < b.far_vertex_begin[c + 1]; ++k)
+            std::memcpy(b.far_records.data() + 8 * std::size_t{k}, records + 8 * std::size_t{b.far_vertices[k] - c0},
+                        8 * sizeof(float));
+        };
+        if (grabbing) {
+          mark_grabbed(true);
+          grab_springs();
+        }
+        for (std::uint32_t q = 0; q < b.awake_count; ++q) {
+          const std::uint32_t blk = b.awake_list[q], b0 = b.begin_of(blk), b1 = b.end_of(blk);
+          into_ring(blk);
+          for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e) {
+            const std::uint32_t c = b.block_neighbours[e];
+            if (c + kernel::kRingReach >= blk && c <= blk + kernel::kRingReach) into_ring(c);
+          }
+          use_slot(0, b0);  // for the pieces (grabbed blocks, the portable clones)
+          if (b.block[blk].grabbed) {  // in pieces, as on the fused path: the grab springs go in between
+            pe_scratch_[q] = kernel::forces(fa, m.model, vel, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1]);
+            add_grabs(blk);
+            account(q, kernel::integrate(ia, integ, b0, b1));
+            continue;
+          }
+          float potential = 0;
+          const kernel::BlockSums<float> sums = kernel::step_block_fused(
+              fa, ia, m.model, integ, b0, b1, b.overflow_begin[blk], b.overflow_begin[blk + 1], nullptr, potential);
+          pe_scratch_[q] = potential;  // before account(), which adds it to the block's energy
+          account(q, sums);
+        }
+        if (grabbing) mark_grabbed(false);
       }
     } else {
       if constexpr (std::is_same_v<S, float>) {
@@ -1047,7 +1112,7 @@ std::uint64_t World<S>::hash() const {
 template <class S>
 std::size_t World<S>::bytes() const {
   std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + pe_scratch_.capacity() * 8 +
-                      acc_pool_.bytes() + acc_free_.capacity() * 4 + pending_.capacity() * sizeof(Pending) +
+                      acc_pool_.bytes() + ring_.bytes() + acc_free_.capacity() * 4 + pending_.capacity() * sizeof(Pending) +
                       yield_masks_.capacity() + outcode_.capacity() + outcode_stamp_.capacity() * sizeof(std::uint32_t);
   for (const Body<S>& b : bodies_) total += b.bytes();
   return total;

@@ -139,6 +139,9 @@ class World {
     std::uint32_t q, slot;  // awake-list index, pool slot
   };
   AlignedBuffer<S> acc_pool_;
+  // The ring of packed records that bodies with a ring step through, one at a
+  // time (kernel::kRingBlocks blocks; ForceArgs::ring_mask).
+  AlignedBuffer<S> ring_;
   std::vector<std::uint32_t> acc_free_;  // free slots (a stack)
   std::vector<Pending> pending_;
   // Narrow phase: per vertex, which faces of the sweep's tool box it lies beyond;

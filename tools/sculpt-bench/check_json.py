@@ -50,10 +50,14 @@ for args in cases:
 # --records picks the layout, and says which it asked for ("on" needs AVX2, so only "off" is checked).
 d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", "off", "--impl", "fast",
                "--steps", "5", "--repeats", "1", "--json"]))[0]
-assert d["records"] == "off" and d["kernel"] in ("avx2-gather", "portable"), d
+assert d["records"] == "off" and d["kernel"] in ("avx2-ring", "portable-ring"), d
+d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", "off", "--ring", "off", "--impl", "fast",
+               "--steps", "5", "--repeats", "1", "--json"]))[0]
+assert d["ring"] == "off" and d["kernel"] in ("avx2-gather", "portable"), d
 
 for args, word in [(["--mesh", "builtin:nothing"], "builtin:nothing"), (["--model", "foam"], "--model"),
-                   (["--steps", "0"], "--steps"), (["--records", "on", "--precision", "double"], "--records")]:
+                   (["--steps", "0"], "--steps"), (["--records", "on", "--precision", "double"], "--records"),
+                   (["--ring", "off", "--precision", "double"], "--ring")]:
     bad = subprocess.run([bench, "throughput", *args], capture_output=True, text=True)
     assert bad.returncode != 0 and word in bad.stderr, f"throughput {args}: must fail naming {word}: {bad.stderr}"
 

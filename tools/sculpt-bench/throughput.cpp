@@ -3,7 +3,7 @@
 //   sculpt-bench throughput [--mesh builtin:icosphere:7|builtin:torus:R:r:rings:sides|builtin:box:cells|FILE]
 //                           [--model spring|linear] [--precision float|double] [--tool none|sphere]
 //                           [--steps N] [--repeats R] [--impl both|fast|baseline] [--records auto|on|off]
-//                           [--json]
+//                           [--ring on|off] [--json]
 //
 // The fast path and the straightforward baseline run interleaved in one
 // process (the machine is shared and noisy: compare them side by side), each
@@ -42,6 +42,7 @@ struct Options {
   std::string tool = "sphere";
   std::string impl = "both";
   std::string records = "auto";  // packed neighbour records: auto (by size) | on | off
+  std::string ring = "on";       // bodies without records: the ring of records (on) or gathers from the arrays
   int steps = 100;
   int repeats = 5;
   bool json = false;
@@ -52,6 +53,7 @@ sim::BodyOptions body_options(const Options& o) {
   bo.packed = o.records == "on"    ? sim::PackedRecords::always
               : o.records == "off" ? sim::PackedRecords::never
                                    : sim::PackedRecords::by_size;
+  bo.ring = o.ring == "on";
   return bo;
 }
 
@@ -160,10 +162,16 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   nlohmann::json j;
   j["substeps"] = world.substeps(0);
   j["clone"] = sim::kernel::active_clone();
-  // Which force kernel ran: packed records, lane-by-lane AVX2 loads from the
-  // arrays (float without records), or the compiler's clones (double, no AVX2).
+  // Which force kernel ran: packed records, the ring of records (float
+  // without records; the clones' version without AVX2), lane-by-lane AVX2
+  // loads from the arrays (--ring off), or the compiler's clones (double).
   const bool avx2 = sim::kernel::avx2_paths_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
-  j["kernel"] = !avx2 ? "portable" : world.body(0).packed[0].empty() ? "avx2-gather" : "avx2-packed";
+  const sim::Body<S>& body = world.body(0);
+  const bool ring = !body.ring_stamp.empty() && body.ring_epoch > 0;  // it stepped through the ring
+  j["kernel"] = ring    ? (avx2 ? "avx2-ring" : "portable-ring")
+                : !avx2 ? "portable"
+                : body.packed[0].empty() ? "avx2-gather"
+                                         : "avx2-packed";
   if (!fast.seconds.empty()) {
     const double per_step = median(fast.seconds) / o.steps;
     j["ms_per_step"] = per_step * 1e3;
@@ -224,6 +232,8 @@ int throughput(const Options& o) {
   // Only float bodies have packed records: asking double for a layout would measure the other one silently.
   if (o.records != "auto" && o.precision == "double")
     throw std::invalid_argument("--records " + o.records + " needs --precision float (double has no packed records)");
+  if (o.ring != "on" && o.precision == "double")
+    throw std::invalid_argument("--ring " + o.ring + " needs --precision float (double has no ring)");
   const long fast_only_rss = o.impl == "baseline" ? -1 : child_peak_rss(o);
   const sim::TriangleMesh mesh = load_mesh_spec(o.mesh);
   sim::Material material;
@@ -246,6 +256,7 @@ int throughput(const Options& o) {
                         {"precision", o.precision},
                         {"tool", o.tool},
                         {"records", o.records},
+                        {"ring", o.ring},
                         {"steps", o.steps},
                         {"repeats", o.repeats},
                         {"substeps", fast["substeps"]}};
@@ -299,6 +310,8 @@ Command add_throughput(CLI::App& app) {
   tp->add_option("--impl", o.impl, "both | fast | baseline")->check(CLI::IsMember({"both", "fast", "baseline"}));
   tp->add_option("--records", o.records, "packed neighbour records (AVX2 path): auto (by mesh size) | on | off")
       ->check(CLI::IsMember({"auto", "on", "off"}));
+  tp->add_option("--ring", o.ring, "float bodies without records: the ring of packed records (on) or gathers from the arrays (off)")
+      ->check(CLI::IsMember({"on", "off"}));
   tp->add_flag("--json", o.json, "one JSON line");
   return {tp, [] { return throughput(o); }};
 }

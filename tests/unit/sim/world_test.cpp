@@ -520,16 +520,17 @@ TEST(Layout, BigBodiesKeepTheirArraysInOneArena) {
     World<float> w(SimSettings{}, 1);
     Material m;
     m.plastic = clay;
-    w.add_body(make_icosphere(0.1f, 6), m);  // 40 962 vertices, packed records
+    w.add_body(make_icosphere(0.1f, 6), m);  // 40 962 vertices: clay has packed records, elastic the ring
     w.add_body(make_icosphere(0.1f, 3), m);  // 642
     const Body<float>& big = w.body(0);
     ASSERT_GE(big.n, kArenaMinVertices);
     for (const void* p : {static_cast<const void*>(big.x.data()), static_cast<const void*>(big.wz.data()),
                           static_cast<const void*>(big.rz.data()), static_cast<const void*>(big.sz.data()),
-                          static_cast<const void*>(big.nbr.data()), static_cast<const void*>(big.rest_length.data()),
-                          static_cast<const void*>(big.packed[1].data())})
+                          static_cast<const void*>(big.nbr.data()), static_cast<const void*>(big.rest_length.data())})
       EXPECT_TRUE(big.arena.contains(p)) << "clay " << clay;
+    EXPECT_EQ(big.packed[1].empty(), !clay);
     if (clay) {
+      EXPECT_TRUE(big.arena.contains(big.packed[1].data()));
       EXPECT_TRUE(big.arena.contains(big.az.data()));
       EXPECT_TRUE(big.arena.contains(big.slen.data()));
     }
@@ -539,9 +540,9 @@ TEST(Layout, BigBodiesKeepTheirArraysInOneArena) {
   }
 }
 
-// Neighbours are 16-bit offsets: a spring reaching farther in the Morton
-// order is kept whole in the overflow list. Each directed spring is in exactly
-// one of the two.
+// A spring whose ends lie more than kRingReach blocks apart in the Morton
+// order (which also bounds the 16-bit offsets) is kept whole in the overflow
+// list. Each directed spring is in exactly one of the two.
 TEST(Layout, FarSpringsGoToTheOverflow) {
   const TriangleMesh sphere = make_icosphere(0.1f, 7);  // 163 842 vertices
   const Body<float> b = make_body<float>(sphere, Material{}, BodyOptions{}, 1);
@@ -549,14 +550,28 @@ TEST(Layout, FarSpringsGoToTheOverflow) {
   for (int s = 0; s < b.slots; ++s)
     for (std::uint32_t i = 0; i < b.n; ++i) {
       const std::int32_t j = static_cast<std::int32_t>(i) + b.nbr[static_cast<std::size_t>(s) * b.n + i];
-      if (j != static_cast<std::int32_t>(i)) seen.emplace_back(i, static_cast<std::uint32_t>(j));
+      if (j == static_cast<std::int32_t>(i)) continue;
+      seen.emplace_back(i, static_cast<std::uint32_t>(j));
+      EXPECT_LE(std::abs(j / std::int64_t{kernel::kBlock} - i / std::int64_t{kernel::kBlock}), kernel::kRingReach);
     }
-  std::size_t far = 0;
+  std::size_t far = 0, behind = 0;
   for (const auto& o : b.overflow) {
-    far += std::abs(o.j - static_cast<std::int64_t>(o.i)) > INT16_MAX;
+    const bool beyond = std::abs(o.j / std::int64_t{kernel::kBlock} - o.i / std::int64_t{kernel::kBlock}) >
+                        std::int64_t{kernel::kRingReach};
+    far += beyond;
     seen.emplace_back(o.i, static_cast<std::uint32_t>(o.j));
+    // The ring's far table: the ends behind (stepped before the row's block) have a saved record.
+    if (beyond && static_cast<std::uint32_t>(o.j) < o.i) {
+      ++behind;
+      ASSERT_LT(o.far, b.far_vertices.size());
+      EXPECT_EQ(b.far_vertices[o.far], static_cast<std::uint32_t>(o.j));
+    } else {
+      EXPECT_EQ(o.far, beyond ? kernel::kFarAhead : kernel::kNotFar);
+    }
   }
-  EXPECT_GT(far, 0u) << "the sphere must have springs beyond a 16-bit offset";
+  EXPECT_GT(far, 0u) << "the sphere must have springs beyond the ring's reach";
+  EXPECT_GT(behind, 0u);
+  EXPECT_EQ(b.far_records.size(), 8 * b.far_vertices.size());
   EXPECT_EQ(seen.size(), 2u * b.springs);
   std::sort(seen.begin(), seen.end());
   EXPECT_TRUE(std::adjacent_find(seen.begin(), seen.end()) == seen.end()) << "a spring end listed twice";
@@ -593,6 +608,63 @@ TEST(Determinism, FarSpringsSameBitsOnEveryPath) {
     EXPECT_EQ(run(PackedRecords::never, false), want) << "clay " << clay;
     EXPECT_EQ(run(PackedRecords::always, false), want) << "clay " << clay;
   }
+}
+
+// The ring of packed records (big elastic float bodies; here forced by
+// records `never` on a 164-block torus, so springs reach past kRingReach) on
+// a body that mostly sleeps: a press wakes a region whose sleeping neighbours
+// are packed on demand, a grab steps its blocks in pieces, pinned vertices are
+// reset after every substep. The ring's one pass (AVX2), its pieces, its
+// portable clones and the double buffer of packed records: the same bits.
+TEST(Determinism, RingSameBitsOnEveryPathWithSleepGrabsAndPins) {
+  const TriangleMesh torus = make_torus(0.3f, 0.05f, 128, 164);
+  std::vector<std::uint32_t> pins;
+  for (std::uint32_t i = 0; i < torus.positions.size(); i += 97) pins.push_back(i);
+  for (Integrator integrator : {Integrator::position_verlet, Integrator::symplectic_euler})
+    for (ForceModel model : {ForceModel::spring, ForceModel::linear}) {
+      auto run = [&](PackedRecords records, bool portable, bool pieces, std::uint64_t* epochs = nullptr) {
+        kernel::force_portable(portable);
+        kernel::force_block_pieces(pieces);
+        SimSettings s;
+        s.integrator = integrator;
+        World<float> w(s, 2);
+        Material m;
+        m.model = model;
+        BodyOptions options;
+        options.packed = records;
+        options.pinned = pins;
+        w.add_body(torus, m, options);
+        Tool push, grab;
+        push.radius = 0.03;
+        grab.radius = 0.02;
+        int partly_awake = 0;  // ticks with awake blocks next to sleeping ones
+        for (int n = 0; n < 120; ++n) {
+          push.position = {0.3 + 0.05 * std::sin(n * 0.03), 0.07 - 0.03 * std::min(n, 60) / 60.0, 0.0};
+          grab.position = {-0.3, 0.0, 0.04 + 0.02 * std::max(0, n - 30) / 90.0};
+          grab.grab = n >= 20 && n < 100;
+          const Tool tools[2] = {push, grab};
+          w.step(tools);
+          partly_awake += w.stats().awake_blocks > 0 && w.stats().awake_blocks < w.body(0).blocks;
+        }
+        kernel::force_portable(false);
+        kernel::force_block_pieces(false);
+        EXPECT_TRUE(test::all_finite(w));
+        EXPECT_GT(partly_awake, 30) << "the press must wake a region, not the torus";
+        if (epochs) *epochs = w.body(0).ring_epoch;
+        EXPECT_EQ(w.stats().blowups_total, 0u);
+        // The energy the guard tests (each block's potential from its forces) too, not only the positions.
+        return w.hash() ^ std::bit_cast<std::uint64_t>(w.energy(0));
+      };
+      std::uint64_t epochs = 0;
+      const std::uint64_t want = run(PackedRecords::always, true, false);
+      EXPECT_EQ(run(PackedRecords::never, false, false, &epochs), want);
+      EXPECT_GT(epochs, 0u) << "the ring must have run";
+      EXPECT_EQ(run(PackedRecords::never, false, true), want) << "pieces";
+      EXPECT_EQ(run(PackedRecords::never, true, false), want) << "portable";
+      if (kernel::avx2_paths_active()) {
+        EXPECT_EQ(run(PackedRecords::always, false, false), want) << "double buffer";
+      }
+    }
 }
 
 TEST(Integrators, AllThreeAgreeOnAPress) {
