@@ -84,7 +84,7 @@ std::size_t Body<S>::bytes() const {
   b += block.capacity() * sizeof(BlockState<S>);
   b += last_reader.capacity() * 4;
   for (const auto& t : tools)
-    b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>) + t.grab_accel.capacity() * 3 * sizeof(S);
+    b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
   return b;
 }
 
@@ -268,6 +268,7 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
       if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = S(0);
     }
   }
+  b.overflow.shrink_to_fit();  // grown by push_back: up to twice its size
   for (const auto& o : b.overflow) ++b.overflow_begin[o.i / kBlock + 1];
   std::partial_sum(b.overflow_begin.begin(), b.overflow_begin.end(), b.overflow_begin.begin());
 
@@ -411,7 +412,6 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   for (auto& t : b.tools) {
     t.candidates.resize(b.blocks);
     t.grabs.resize(static_cast<std::size_t>(options.max_grabbed));
-    t.grab_accel.resize(t.grabs.size());
   }
   return b;
 }

@@ -75,7 +75,6 @@ struct ToolContact {
   std::vector<std::uint32_t> candidates;  // capacity = blocks
   std::uint32_t candidate_count = 0;
   std::vector<Grab<S>> grabs;             // capacity = BodyOptions::max_grabbed; sorted by vertex
-  std::vector<std::array<S, 3>> grab_accel;  // per grab: its spring's acceleration this substep
   std::uint32_t grab_count = 0;
   bool grabbing = false;
 };

@@ -762,7 +762,12 @@ void World<S>::step_body(std::uint32_t bi) {
     };
     // Grabbed vertices follow the tool through a spring each; the tool feels
     // the pull back. Reads x before any block of this substep integrates; each
-    // grabbed block adds the accelerations (add_grabs) after its own forces.
+    // grabbed block adds the accelerations (add_grabs) after its own forces,
+    // from the same x (its block has not moved yet): the same bits, and no
+    // per-grab buffer.
+    auto grab_force = [&](const V3<S>& c, const Grab<S>& gr) {
+      return V3<S>{kg * (c[0] + gr.ox - b.x[gr.i]), kg * (c[1] + gr.oy - b.y[gr.i]), kg * (c[2] + gr.oz - b.z[gr.i])};
+    };
     auto grab_springs = [&] {
       for (std::uint32_t t = 0; t < tool_slots_; ++t) {
         ToolContact<S>& tc = b.tools[t];
@@ -770,11 +775,8 @@ void World<S>::step_body(std::uint32_t bi) {
         ToolTrack& tr = tracks_[t];
         const V3<S> c = lerp<S>(tr.c0, tr.c1, alpha0);
         for (std::uint32_t g = 0; g < tc.grab_count; ++g) {
-          const Grab<S>& gr = tc.grabs[g];
-          const S fx = kg * (c[0] + gr.ox - b.x[gr.i]), fy = kg * (c[1] + gr.oy - b.y[gr.i]),
-                  fz = kg * (c[2] + gr.oz - b.z[gr.i]);
-          tc.grab_accel[g] = {fx * inv_m, fy * inv_m, fz * inv_m};
-          tr.force[0] -= double(fx) / nsub, tr.force[1] -= double(fy) / nsub, tr.force[2] -= double(fz) / nsub;
+          const V3<S> f = grab_force(c, tc.grabs[g]);
+          tr.force[0] -= double(f[0]) / nsub, tr.force[1] -= double(f[1]) / nsub, tr.force[2] -= double(f[2]) / nsub;
         }
         tr.contacts = std::max(tr.contacts, tc.grab_count);
       }
@@ -784,13 +786,14 @@ void World<S>::step_body(std::uint32_t bi) {
       for (std::uint32_t t = 0; t < tool_slots_; ++t) {
         const ToolContact<S>& tc = b.tools[t];
         if (!tc.grabbing) continue;
+        const V3<S> c = lerp<S>(tracks_[t].c0, tracks_[t].c1, alpha0);
         const Grab<S>* first = tc.grabs.data();
         const Grab<S>* g = std::lower_bound(first, first + tc.grab_count, b0,
                                             [](const Grab<S>& gr, std::uint32_t v) { return gr.i < v; });
         for (; g != first + tc.grab_count && g->i < b1; ++g) {
-          const std::array<S, 3>& acc = tc.grab_accel[g - first];
+          const V3<S> f = grab_force(c, *g);
           const std::uint32_t k = g->i - fa.acc_origin;
-          fa.ax[k] += acc[0], fa.ay[k] += acc[1], fa.az[k] += acc[2];
+          fa.ax[k] += f[0] * inv_m, fa.ay[k] += f[1] * inv_m, fa.az[k] += f[2] * inv_m;
         }
       }
     };
