@@ -78,8 +78,11 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   // every vertex. The rest integrate each block as soon as no later block
   // reads it, from a pool slot.
   // Bodies that step through the ring need neither (the ring's grabbed blocks
-  // take one slot).
-  const bool ring = !b.ring_stamp.empty() && settings_.integrator != Integrator::velocity_verlet && !b.plastic;
+  // take one slot). The ring is for the AVX2 kernels: the compiler's clones
+  // of it ran at 27-31 ns per vertex-step here against 17-21 for their
+  // gathers from the arrays, so without AVX2 a body gathers, through the pool.
+  const bool ring = !b.ring_stamp.empty() && settings_.integrator != Integrator::velocity_verlet && !b.plastic &&
+                    kernel::avx2_paths_active();
   if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
     for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), &b.arena);
   } else if (ring) {
@@ -723,8 +726,11 @@ void World<S>::step_body(std::uint32_t bi) {
   // through a ring of packed records instead: blocks are packed into it, from
   // the arrays that still hold the substep's start, just before the first
   // block that reads them steps (see kernel::ForceArgs::ring_mask).
-  const bool ring = std::is_same_v<S, float> && !b.ring_stamp.empty() && !ring_.empty() && !fused &&
-                    integ != Integrator::velocity_verlet && !clay;
+  // Without AVX2 only if the testing knob turned it off after add_body sized
+  // the pool for the ring (then the clones step the ring: the same bits).
+  const bool ring = std::is_same_v<S, float> && !b.ring_stamp.empty() && !fused &&
+                    ring_.size() >= 8 * std::size_t{b.ring_blocks} * kBlock && integ != Integrator::velocity_verlet &&
+                    !clay && (kernel::avx2_paths_active() || acc_free_.size() < b.pending_capacity);
   const std::size_t mask_bytes = yield_mask_bytes(b);
   auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };  // clay bodies only
   for (int sub = 0; sub < nsub; ++sub) {
