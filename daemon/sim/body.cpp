@@ -381,10 +381,10 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     }
   }
 
-  // The ring's far table (float bodies without the packed buffers): the far
-  // ends that a row reads after their own block has stepped (blocks step in
-  // ascending order, so the ends behind).
-  if (std::is_same_v<S, float> && b.packed[0].empty() && options.ring) {
+  // The ring's far table (elastic float bodies without the packed buffers):
+  // the far ends that a row reads after their own block has stepped (blocks
+  // step in ascending order, so the ends behind).
+  if (std::is_same_v<S, float> && b.packed[0].empty() && !b.plastic && options.ring) {
     auto behind = [&](const kernel::Overflow<S>& o) { return !near(o.i, o.j) && static_cast<std::uint32_t>(o.j) < o.i; };
     for (const auto& o : b.overflow)
       if (behind(o)) b.far_vertices.push_back(static_cast<std::uint32_t>(o.j));

@@ -125,7 +125,7 @@ struct Body {
   AlignedBuffer<S> rest_length;     // slots × n (spring model only)
   std::vector<kernel::Overflow<S>> overflow;
   std::vector<std::uint32_t> overflow_begin;  // blocks + 1
-  // The ring of packed records (float bodies without the packed buffers; see
+  // The ring of packed records (elastic float bodies without the packed buffers; see
   // kernel::ForceArgs::ring_mask): the vertices that overflow springs reach
   // from beyond kRingReach blocks (Overflow::far), grouped by block, sorted;
   // their records of the substep's start, saved when their block is packed into

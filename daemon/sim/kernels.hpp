@@ -18,9 +18,9 @@ namespace sculpt::sim::kernel {
 // Vertices per block: the unit of sleeping, broadphase and change logging.
 inline constexpr std::uint32_t kBlock = 128;
 
-// The ring of packed records (float, AVX2, big elastic bodies): block c's
-// records sit at ring block c mod kRingBlocks while the blocks within
-// kRingReach of it step. A spring whose ends lie farther apart in blocks is
+// The ring of packed records (elastic float bodies, AVX2): block c's
+// records sit at ring block c mod kRingBlocks (fewer for a small body) while
+// the blocks within kRingReach of it step. A spring whose ends lie farther apart in blocks is
 // never in an ELL slot (every body, so every path sums the same springs in
 // the same order); it goes to the overflow list, and the ring reads its far
 // end from Body::far_records. docs/simulation.md has the measurements.
@@ -65,8 +65,8 @@ struct ForceArgs {
   // aligned, kept current by pack(). Lets the AVX2 path fetch a neighbour with
   // two 16-byte loads instead of six scalar gathers. Same results, bit for bit.
   const S* packed = nullptr;
-  // Optional (float): packed is a ring of kRingBlocks blocks (vertex i's record
-  // at 8·(i & ring_mask)), holding the state the step started from for every
+  // Optional (float): packed is a ring of Body::ring_blocks blocks (vertex i's
+  // record at 8·(i & ring_mask)), holding the state the step started from for every
   // block within kRingReach of the one stepping. A far spring's end j reads
   // its step-start state from far_records[8·far] once j's block has been
   // packed this substep (ring_stamp[block] == ring_epoch: it may have moved

@@ -722,7 +722,7 @@ void World<S>::step_body(std::uint32_t bi) {
   const bool clay = b.plastic;
   const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::avx2_paths_active() &&
                      !(clay && m.model == ForceModel::linear);
-  // Big elastic float bodies (no packed buffers) take the same single pass
+  // Elastic float bodies without the double buffer take the same single pass
   // through a ring of packed records instead: blocks are packed into it, from
   // the arrays that still hold the substep's start, just before the first
   // block that reads them steps (see kernel::ForceArgs::ring_mask).
