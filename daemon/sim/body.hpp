@@ -26,9 +26,10 @@ struct BodyOptions {
   std::vector<std::uint32_t> pinned;  // original vertex indices held at their rest position
   int max_grabbed = 4096;             // per tool: vertices one grab can hold (preallocated)
   PackedRecords packed = PackedRecords::by_size;
-  // Float bodies without packed records step through the ring of packed
-  // records (kernel::kRingBlocks); false: they gather neighbours from the
-  // arrays instead, through the acceleration pool (benchmarks compare the two).
+  // Elastic float bodies without packed records step through the ring of
+  // packed records (kernel::kRingBlocks) where World runs the AVX2 kernels and
+  // a one-pass integrator; false: they gather neighbours from the arrays
+  // instead, through the acceleration pool (benchmarks compare the two).
   bool ring = true;
 };
 
@@ -133,9 +134,11 @@ struct Body {
   std::vector<std::uint32_t> far_vertices;
   std::vector<std::uint32_t> far_vertex_begin;  // blocks + 1
   AlignedBuffer<S> far_records;                 // 8 per far vertex
-  std::vector<std::uint64_t> ring_stamp;        // blocks; empty: the body never takes the ring
+  std::vector<std::uint64_t> ring_stamp;        // blocks
   std::uint64_t ring_epoch = 0;
-  std::uint32_t ring_blocks = 0;                // its ring's size: min(kRingBlocks, blocks rounded up to 2^k)
+  // Its ring's size, min(kRingBlocks, blocks rounded up to 2^k); 0: the body
+  // never takes the ring (and has none of the above).
+  std::uint32_t ring_blocks = 0;
 
   // Triangles, grouped by owning block (the block of their lowest vertex), as
   // their vertices' offsets from the block's first vertex: 6 bytes instead of

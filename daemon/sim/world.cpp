@@ -55,7 +55,13 @@ World<S>::World(const SimSettings& settings, int tool_slots) : settings_(setting
 
 template <class S>
 std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options) {
-  Body<S> b = make_body<S>(mesh, material, options, static_cast<int>(tool_slots_));
+  // The ring is for the AVX2 kernels (the compiler's clones of it ran at
+  // 27-31 ns per vertex-step here against 17-21 for their gathers from the
+  // arrays) and for the integrators that step in one pass (velocity Verlet
+  // keeps a(t) in ax..az): decided here, once. Body::ring_blocks > 0 says yes.
+  BodyOptions body_options = options;
+  body_options.ring = options.ring && settings_.integrator != Integrator::velocity_verlet && kernel::avx2_paths_active();
+  Body<S> b = make_body<S>(mesh, material, body_options, static_cast<int>(tool_slots_));
   const SubstepChoice choice = choose_substeps_for_degree(b.max_degree, material, settings_);
   const double g = material.gravity ? norm(settings_.gravity) : 0.0;
   const double m = material.mass;
@@ -78,11 +84,8 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   // every vertex. The rest integrate each block as soon as no later block
   // reads it, from a pool slot.
   // Bodies that step through the ring need neither (the ring's grabbed blocks
-  // take one slot). The ring is for the AVX2 kernels: the compiler's clones
-  // of it ran at 27-31 ns per vertex-step here against 17-21 for their
-  // gathers from the arrays, so without AVX2 a body gathers, through the pool.
-  const bool ring = !b.ring_stamp.empty() && settings_.integrator != Integrator::velocity_verlet && !b.plastic &&
-                    kernel::avx2_paths_active();
+  // take one slot).
+  const bool ring = b.ring_blocks > 0;
   if (settings_.integrator == Integrator::velocity_verlet || b.plastic) {
     for (auto* buf : {&b.ax, &b.ay, &b.az}) buf->resize(b.n, S(0), &b.arena);
   } else if (ring) {
@@ -722,15 +725,13 @@ void World<S>::step_body(std::uint32_t bi) {
   const bool clay = b.plastic;
   const bool fused = !b.packed[0].empty() && integ != Integrator::velocity_verlet && kernel::avx2_paths_active() &&
                      !(clay && m.model == ForceModel::linear);
-  // Elastic float bodies without the double buffer take the same single pass
-  // through a ring of packed records instead: blocks are packed into it, from
-  // the arrays that still hold the substep's start, just before the first
-  // block that reads them steps (see kernel::ForceArgs::ring_mask).
-  // Without AVX2 only if the testing knob turned it off after add_body sized
-  // the pool for the ring (then the clones step the ring: the same bits).
-  const bool ring = std::is_same_v<S, float> && !b.ring_stamp.empty() && !fused &&
-                    ring_.size() >= 8 * std::size_t{b.ring_blocks} * kBlock && integ != Integrator::velocity_verlet &&
-                    !clay && (kernel::avx2_paths_active() || acc_free_.size() < b.pending_capacity);
+  // Elastic float bodies without the double buffer (add_body decided) take
+  // the same single pass through a ring of packed records instead: blocks are
+  // packed into it, from the arrays that still hold the substep's start, just
+  // before the first block that reads them steps (see
+  // kernel::ForceArgs::ring_mask). Should the testing knob turn the AVX2
+  // kernels off afterwards, the compiler's clones step the ring: the same bits.
+  const bool ring = b.ring_blocks > 0;
   const std::size_t mask_bytes = yield_mask_bytes(b);
   auto mask_of = [&](std::uint32_t q) { return yield_masks_.data() + q * mask_bytes; };  // clay bodies only
   for (int sub = 0; sub < nsub; ++sub) {

@@ -167,7 +167,7 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   // loads from the arrays (--ring off), or the compiler's clones (double).
   const bool avx2 = sim::kernel::avx2_paths_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
   const sim::Body<S>& body = world.body(0);
-  const bool ring = !body.ring_stamp.empty() && body.ring_epoch > 0;  // it stepped through the ring
+  const bool ring = body.ring_epoch > 0;  // it stepped through the ring
   j["kernel"] = ring    ? (avx2 ? "avx2-ring" : "portable-ring")
                 : !avx2 ? "portable"
                 : body.packed[0].empty() ? "avx2-gather"
