@@ -1023,65 +1023,60 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
 }  // namespace
 #endif
 
+#if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
+namespace {
+// A whole block in one pass of eight-vertex groups, or a body's last, partial
+// block in pieces; with Ring, through the ring of records (nothing packed after).
+template <ForceModel M, Velocity V, Integrator I, bool Ring>
+BlockSums<float> fused_block(const ForceArgs<float>& a, const IntegrateArgs<float>& in, bool whole,
+                             std::uint32_t begin, std::uint32_t end, std::uint32_t ob, std::uint32_t oe,
+                             float* packed_next, float& potential) {
+  return whole ? fused_full_block_avx2<M, V, I, false, Ring>(a, in, begin, ob, oe, packed_next, potential)
+               : fused_avx2<M, V, I, Ring>(a, in, begin, end, ob, oe, packed_next, potential);
+}
+template <bool Ring>
+BlockSums<float> fused_dispatch(const ForceArgs<float>& a, const IntegrateArgs<float>& in, bool spring,
+                                Integrator integrator, bool whole, std::uint32_t begin, std::uint32_t end,
+                                std::uint32_t ob, std::uint32_t oe, float* packed_next, float& potential) {
+  constexpr auto SP = ForceModel::spring;
+  constexpr auto LI = ForceModel::linear;
+  if (integrator == Integrator::position_verlet) {
+    constexpr auto BD = Velocity::step;
+    constexpr auto PV = Integrator::position_verlet;
+    return spring ? fused_block<SP, BD, PV, Ring>(a, in, whole, begin, end, ob, oe, packed_next, potential)
+                  : fused_block<LI, BD, PV, Ring>(a, in, whole, begin, end, ob, oe, packed_next, potential);
+  }
+  constexpr auto ST = Velocity::stored;
+  constexpr auto SE = Integrator::symplectic_euler;
+  return spring ? fused_block<SP, ST, SE, Ring>(a, in, whole, begin, end, ob, oe, packed_next, potential)
+                : fused_block<LI, ST, SE, Ring>(a, in, whole, begin, end, ob, oe, packed_next, potential);
+}
+}  // namespace
+#endif
+
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
                                   Integrator integrator, std::uint32_t begin, std::uint32_t end, std::uint32_t ob,
                                   std::uint32_t oe, float* packed_next, float& potential, const YieldArgs* yield) {
   const bool spring = model == ForceModel::spring;
   [[maybe_unused]] const bool whole = end - begin == kBlock && !g_block_pieces.load(std::memory_order_relaxed);
-  [[maybe_unused]] const bool avx2 = avx2_paths_active();
+  [[maybe_unused]] const bool avx2 = avx2_paths_active() && integrator != Integrator::velocity_verlet;
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  constexpr auto BD = Velocity::step;
-  constexpr auto ST = Velocity::stored;
-  constexpr auto PV = Integrator::position_verlet;
-  constexpr auto SE = Integrator::symplectic_euler;
-  if (avx2 && !a.ring_mask && yield && spring && whole) {  // the marks come with the forces
-    if (integrator == PV)
-      return fused_full_block_avx2<ForceModel::spring, BD, PV, true>(a, in, begin, ob, oe, packed_next, potential,
-                                                                      yield);
-    if (integrator == SE)
-      return fused_full_block_avx2<ForceModel::spring, ST, SE, true>(a, in, begin, ob, oe, packed_next, potential,
-                                                                      yield);
+  // Clay (double buffer only: World keeps clay off the ring): the marks come with the forces.
+  if (avx2 && !a.ring_mask && yield && spring && whole) {
+    if (integrator == Integrator::position_verlet)
+      return fused_full_block_avx2<ForceModel::spring, Velocity::step, Integrator::position_verlet, true>(
+          a, in, begin, ob, oe, packed_next, potential, yield);
+    return fused_full_block_avx2<ForceModel::spring, Velocity::stored, Integrator::symplectic_euler, true>(
+        a, in, begin, ob, oe, packed_next, potential, yield);
   }
 #endif
   // Otherwise from the state before this block moves.
   if (yield) yield_candidates(a, yield->yield, yield->anchor_limit, spring, begin, end, yield->mask);
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
-  if (avx2 && a.ring_mask) {  // elastic only (World keeps clay off the ring): no marks to make
-    if (whole) {
-      if (integrator == PV)
-        return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV, false, true>(a, in, begin, ob, oe, nullptr,
-                                                                                        potential)
-                      : fused_full_block_avx2<ForceModel::linear, BD, PV, false, true>(a, in, begin, ob, oe, nullptr,
-                                                                                        potential);
-      if (integrator == SE)
-        return spring ? fused_full_block_avx2<ForceModel::spring, ST, SE, false, true>(a, in, begin, ob, oe, nullptr,
-                                                                                        potential)
-                      : fused_full_block_avx2<ForceModel::linear, ST, SE, false, true>(a, in, begin, ob, oe, nullptr,
-                                                                                        potential);
-    }
-    if (integrator == PV)
-      return spring ? fused_avx2<ForceModel::spring, BD, PV, true>(a, in, begin, end, ob, oe, nullptr, potential)
-                    : fused_avx2<ForceModel::linear, BD, PV, true>(a, in, begin, end, ob, oe, nullptr, potential);
-    if (integrator == SE)
-      return spring ? fused_avx2<ForceModel::spring, ST, SE, true>(a, in, begin, end, ob, oe, nullptr, potential)
-                    : fused_avx2<ForceModel::linear, ST, SE, true>(a, in, begin, end, ob, oe, nullptr, potential);
-  }
-  // Every block but a body's last one (unless the testing knob asks for the pieces).
-  if (avx2 && !a.ring_mask && whole) {
-    if (integrator == PV)
-      return spring ? fused_full_block_avx2<ForceModel::spring, BD, PV>(a, in, begin, ob, oe, packed_next, potential)
-                    : fused_full_block_avx2<ForceModel::linear, BD, PV>(a, in, begin, ob, oe, packed_next, potential);
-    if (integrator == SE)
-      return spring ? fused_full_block_avx2<ForceModel::spring, ST, SE>(a, in, begin, ob, oe, packed_next, potential)
-                    : fused_full_block_avx2<ForceModel::linear, ST, SE>(a, in, begin, ob, oe, packed_next, potential);
-  }
-  // A body's last, partial block.
-  if (avx2 && !a.ring_mask && integrator == PV)
-    return spring ? fused_avx2<ForceModel::spring, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential)
-                  : fused_avx2<ForceModel::linear, BD, PV>(a, in, begin, end, ob, oe, packed_next, potential);
-  if (avx2 && !a.ring_mask && integrator == SE)
-    return spring ? fused_avx2<ForceModel::spring, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential)
-                  : fused_avx2<ForceModel::linear, ST, SE>(a, in, begin, end, ob, oe, packed_next, potential);
+  if (avx2)
+    return a.ring_mask ? fused_dispatch<true>(a, in, spring, integrator, whole, begin, end, ob, oe, nullptr, potential)
+                       : fused_dispatch<false>(a, in, spring, integrator, whole, begin, end, ob, oe, packed_next,
+                                               potential);
 #endif
   // The portable clones (the ring's path without AVX2), in the unfused order.
   const Velocity vel =
