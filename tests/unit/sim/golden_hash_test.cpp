@@ -63,7 +63,8 @@ std::uint64_t run_tools() {
 // grabs and pulls, and a 164-block body, so blocks wait across Morton seams.
 // With records `always` the float bodies keep the double buffer of packed
 // records; with `never` (and by default) they step through the ring of packed
-// records (AVX2 or portable): the same bits again. (These three hashes changed when springs reaching farther than
+// records on AVX2 and gather from the arrays on the portable kernels: the same
+// bits again. (These three hashes changed when springs reaching farther than
 // kernel::kRingReach blocks moved from the ELL slots to the overflow list,
 // which sums them after the slots: the torus has 164 blocks.)
 std::uint64_t run_elastic(Integrator integrator, PackedRecords records, ForceModel model = ForceModel::spring) {
