@@ -1,9 +1,12 @@
 #include "main/log.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cinttypes>
+#include <cstdio>
 #include <cstdlib>
 
 namespace sculpt::log {
@@ -13,11 +16,23 @@ std::atomic<int> g_level{static_cast<int>(Level::info)};
 // -1: decide from the environment at the first message.
 std::atomic<int> g_prefix{-1};
 
+// systemd sets JOURNAL_STREAM to "DEVICE:INODE" of the stream it connected
+// to stdout/stderr; a child that inherits the variable but writes elsewhere
+// (a terminal, a pipe) must not use the prefixes (systemd.exec(5)).
+bool stderr_is_journal() {
+  const char* env = std::getenv("JOURNAL_STREAM");
+  if (env == nullptr) return false;
+  std::uintmax_t dev = 0, ino = 0;
+  if (std::sscanf(env, "%ju:%ju", &dev, &ino) != 2) return false;
+  struct stat st {};
+  if (::fstat(STDERR_FILENO, &st) != 0) return false;
+  return static_cast<std::uintmax_t>(st.st_dev) == dev && static_cast<std::uintmax_t>(st.st_ino) == ino;
+}
+
 bool use_prefix() {
   int p = g_prefix.load(std::memory_order_relaxed);
   if (p < 0) {
-    // journald (JOURNAL_STREAM) or a pipe/file: prefixes; a person at a terminal: words.
-    p = (std::getenv("JOURNAL_STREAM") != nullptr || !isatty(STDERR_FILENO)) ? 1 : 0;
+    p = stderr_is_journal() ? 1 : 0;
     g_prefix.store(p, std::memory_order_relaxed);
   }
   return p == 1;
@@ -58,9 +73,13 @@ void write(Level lvl, std::string_view message) {
     line += '<';
     line += static_cast<char>('0' + static_cast<int>(lvl));
     line += '>';
-  } else if (lvl != Level::info) {
-    line += level_name(lvl);
-    line += ": ";
+  } else {
+    // The programs' one voice (cli/conventions.hpp): "sculptd: error: ...".
+    line += "sculptd: ";
+    if (lvl != Level::info) {
+      line += level_name(lvl);
+      line += ": ";
+    }
   }
   // One message, one journal entry: embedded newlines would split it.
   for (char c : message) line += c == '\n' ? ' ' : c;

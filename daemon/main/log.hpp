@@ -1,7 +1,9 @@
-// sculptd's log: one line per message on stderr, prefixed with its sd-daemon
-// priority (<3> error ... <7> debug) so journald keeps the levels. On a
-// terminal the prefix is a word instead ("warning: ..."). Thread-safe: each
-// line is a single write(). Never call it from the sim thread.
+// sculptd's log: one line per message on stderr. When stderr is the journal
+// ($JOURNAL_STREAM names it) each line starts with its sd-daemon priority
+// (<3> error ... <7> debug) so journald keeps the levels; anywhere else (a
+// terminal, a pipe, a file) it reads as the other programs' messages do:
+// "sculptd: warning: ...". Thread-safe: each line is a single write(). Never
+// call it from the sim thread.
 #pragma once
 
 #include <string>
@@ -20,8 +22,8 @@ Level level();
 bool parse_level(std::string_view name, Level& out);
 std::string_view level_name(Level level);
 
-// Forces the sd-daemon prefix (true) or the terminal form (false); by default
-// the prefix is used unless stderr is a terminal outside journald.
+// Forces the sd-daemon prefix (true) or the plain form (false); by default
+// the prefix is used only when stderr is the journal stream.
 void set_journal_prefix(bool on);
 
 void write(Level level, std::string_view message);

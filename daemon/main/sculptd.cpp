@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli/conventions.hpp"
 #include "main/cli.hpp"
 #include "main/config.hpp"
 #include "main/daemon.hpp"
@@ -17,21 +18,19 @@
 
 int main(int argc, char** argv) {
   using namespace sculpt;
+  cli::set_program("sculptd");
   CLI::App app{"sculptd " SCULPTD_VERSION ": joysticks push and pull elastic meshes, with force feedback"};
+  cli::apply_conventions(app);
   app.set_version_flag("--version", SCULPTD_VERSION);
-  daemon::CliOptions cli;
-  daemon::add_options(app, cli);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  }
+  daemon::CliOptions options;
+  daemon::add_options(app, options);
+  if (const auto status = cli::parse(app, argc, argv)) return *status;
   daemon::RunOptions run;
   try {
-    run.config = daemon::load_config(cli.config, !cli.config_given);
-    cli.apply(run.config);
+    run.config = daemon::load_config(options.config, !options.config_given);
+    options.apply(run.config);
     log::set_level(run.config.log_level);
-    if (cli.check) {
+    if (options.check) {
       input::parse_mapping(run.config.mapping_table, run.config.file.empty() ? "config" : run.config.file);
       const scene::Scene s = scene::load_scene(run.config.scene);
       std::printf("config %s: ok\nscene %s: ok (%zu meshes, %zu tools)\n",
@@ -43,8 +42,8 @@ int main(int argc, char** argv) {
     log::err("{}", e.what());
     return 1;
   }
-  run.config_path = cli.config;
-  run.config_optional = !cli.config_given;
-  run.overrides = [cli](daemon::DaemonConfig& c) { cli.apply(c); };
+  run.config_path = options.config;
+  run.config_optional = !options.config_given;
+  run.overrides = [options](daemon::DaemonConfig& c) { options.apply(c); };
   return daemon::run(std::move(run));
 }

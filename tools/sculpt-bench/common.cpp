@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "cli/conventions.hpp"
 #include "scene/mesh_import.hpp"
 #include "sim/shapes.hpp"
 
@@ -102,7 +103,7 @@ void Report::add(const nlohmann::json& row) {
 }
 
 void Report::progress(const std::string& what) const {
-  if (!o_.quiet) std::cerr << "sculpt-bench " << name_ << ": " << what << std::endl;
+  if (!o_.quiet) cli::note(name_ + ": " + what);
 }
 
 std::filesystem::path Report::write_csv() const {

@@ -6,21 +6,23 @@
 //   skip        what sleeping saves: cost per tick and bytes streamed, idle and active (skip.cpp)
 #include <CLI/CLI.hpp>
 #include <exception>
-#include <iostream>
 
+#include "cli/conventions.hpp"
 #include "common.hpp"
 
 int main(int argc, char** argv) {
   using namespace sculpt::bench;
+  sculpt::cli::set_program("sculpt-bench");
   CLI::App app{"sculpt-bench: simulation benchmarks (numbers, not pass/fail)"};
-  app.require_subcommand(1);
+  sculpt::cli::apply_conventions(app);
+  app.require_subcommand(0, 1);  // no command: cli::parse names the commands
   const Command commands[] = {add_throughput(app), add_accuracy(app), add_stability(app), add_skip(app)};
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = sculpt::cli::parse(app, argc, argv)) return *status;
   try {
     for (const Command& c : commands)
       if (c.app->parsed()) return c.run();
   } catch (const std::exception& e) {
-    std::cerr << "sculpt-bench: " << e.what() << "\n";
+    sculpt::cli::error(e.what());
     return 2;
   }
   return 0;

@@ -1,7 +1,6 @@
 #include "daemon_link.hpp"
 
-#include <cstdio>
-
+#include "cli/conventions.hpp"
 #include "client/socket_path.hpp"
 #include "commands.hpp"
 
@@ -16,7 +15,7 @@ void add_daemon_options(CLI::App& cmd, DaemonArgs& args) {
 }
 
 void fail(int status, const std::string& message) {
-  std::fprintf(stderr, "sculptctl: %s\n", message.c_str());
+  cli::error(message);
   throw CommandFailed{status};
 }
 

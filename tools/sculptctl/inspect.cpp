@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/conventions.hpp"
 #include "commands.hpp"
 #include "scene/mesh_import.hpp"
 #include "scene/scene.hpp"
@@ -40,7 +41,7 @@ Scene scene_of_mesh(const InspectArgs& args) {
   s.file = args.file;
   s.materials = scene::material_presets();
   if (!s.materials.count(args.material)) {
-    std::cerr << "sculptctl inspect: no material preset '" << args.material << "' (rubber, clay, jelly)\n";
+    cli::error("inspect --material: no preset '" + args.material + "' (rubber, clay, jelly)");
     throw CommandFailed{2};
   }
   scene::ImportOptions options;
@@ -128,14 +129,14 @@ void run(const InspectArgs& args) {
     return;
   }
   if (args.file.empty()) {
-    std::cerr << "sculptctl inspect: give a mesh or scene FILE (or builtin:default)\n";
+    cli::error("inspect: give a mesh or scene FILE (or builtin:default)");
     throw CommandFailed{2};
   }
   Scene s;
   try {
     s = is_scene(args.file) ? scene::load_scene(args.file) : scene_of_mesh(args);
   } catch (const std::exception& e) {  // LoadError / SceneError: already one line naming the file
-    std::cerr << "error: " << e.what() << "\n";
+    cli::error(e.what());
     throw CommandFailed{1};
   }
   if (!args.json) {
@@ -152,7 +153,7 @@ void run(const InspectArgs& args) {
       for (const std::string& w : s.warnings) fmt::print("warning: {}\n", w);
     }
   } else if (s.meshes.empty()) {
-    for (const std::string& w : s.warnings) std::cerr << "warning: " << w << "\n";
+    for (const std::string& w : s.warnings) cli::warning(w);
   }
   for (const SceneMesh& m : s.meshes) {
     sim::SubstepChoice sub{};
@@ -160,7 +161,7 @@ void run(const InspectArgs& args) {
     try {
       sub = sim::choose_substeps(m.loaded.mesh, s.material_of(m), s.settings);
     } catch (const std::invalid_argument& e) {
-      std::cerr << "error: " << s.file.string() << ": mesh '" << m.name << "': " << e.what() << "\n";
+      cli::error(s.file.string() + ": mesh '" + m.name + "': " + e.what());
       throw CommandFailed{1};
     }
     if (sub.substeps >= sim::kMaxSubsteps) {

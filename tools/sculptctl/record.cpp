@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "cli/conventions.hpp"
 #include "commands.hpp"
 #include "input/device_manager.hpp"
 #include "input/evdev_device.hpp"
@@ -45,10 +46,10 @@ class Recorder : public input::DeviceListener {
       devices_.push_back(info);
       devices_.back().node.clear();
     }
-    fmt::print(stderr, "record: device {}: {}\n", index_[slot], input::describe(info));
+    cli::note(fmt::format("record: device {}: {}", index_[slot], input::describe(info)));
   }
   void on_detach(std::uint8_t slot) override {
-    fmt::print(stderr, "record: device {} unplugged\n", index_.count(slot) ? index_[slot] : 0u);
+    cli::note(fmt::format("record: device {} unplugged", index_.count(slot) ? index_[slot] : 0u));
   }
   void on_frame(const input::InputFrame& f) override {
     if (!started_ || !index_.count(f.slot)) return;
@@ -59,7 +60,9 @@ class Recorder : public input::DeviceListener {
     frames_.push_back(std::move(s));
   }
   void on_log(int priority, const std::string& message) override {
-    if (priority <= LOG_WARNING || verbose_) fmt::print(stderr, "record: {}\n", message);
+    if (priority <= LOG_ERR) cli::error("record: " + message);
+    else if (priority <= LOG_WARNING) cli::warning("record: " + message);
+    else if (verbose_) cli::note("record: " + message);
   }
 
   void start_clock() {
@@ -103,16 +106,16 @@ void run(const RecordArgs& args) {
   try {
     manager.start();
   } catch (const std::exception& e) {
-    fmt::print(stderr, "sculptctl record: cannot watch input devices: {}\n", e.what());
+    cli::error(fmt::format("record: cannot watch input devices: {}", e.what()));
     throw CommandFailed{1};
   }
   using Clock = std::chrono::steady_clock;
   const auto wait_end = Clock::now() + std::chrono::duration<double>(args.wait_for ? args.wait_timeout : 0);
   while (!g_stop && manager.attached() < args.wait_for && Clock::now() < wait_end) poll_once(manager, 20);
   if (manager.attached() < std::max<std::size_t>(args.wait_for, 1)) {
-    fmt::print(stderr, "sculptctl record: {} joystick(s) found{}; nothing to record{}\n", manager.attached(),
+    cli::error(fmt::format("record: {} joystick(s) found{}; nothing to record{}", manager.attached(),
                args.wait_for ? fmt::format(" within {} s, {} wanted", args.wait_timeout, args.wait_for) : "",
-               args.all ? "" : " (--all records any input device)");
+               args.all ? "" : " (--all records any input device)"));
     throw CommandFailed{1};
   }
   recorder.start_clock();
@@ -131,7 +134,7 @@ void run(const RecordArgs& args) {
   try {
     input::write_session(args.file, session);
   } catch (const input::SessionError& e) {
-    fmt::print(stderr, "sculptctl record: {}\n", e.what());
+    cli::error(fmt::format("record: {}", e.what()));
     throw CommandFailed{1};
   }
   fmt::print("recorded {} frames from {} device(s), {:.2f} s\n", session.frames.size(), session.header.devices.size(),

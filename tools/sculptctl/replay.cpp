@@ -18,6 +18,7 @@
 
 #include <fmt/format.h>
 
+#include "cli/conventions.hpp"
 #include "commands.hpp"
 #include "input/session.hpp"
 #include "uinput/virtual_device.hpp"
@@ -89,7 +90,7 @@ void run(const ReplayArgs& args) {
   try {
     reader = std::make_unique<input::SessionReader>(args.file);
   } catch (const input::SessionError& e) {
-    fmt::print(stderr, "sculptctl replay: {}\n", e.what());
+    cli::error(fmt::format("replay: {}", e.what()));
     throw CommandFailed{2};
   }
   std::vector<std::unique_ptr<uinput::VirtualDevice>> devices;
@@ -102,8 +103,8 @@ void run(const ReplayArgs& args) {
       wait_for_udev(devices.back()->event_node());
     }
   } catch (const std::exception& e) {
-    fmt::print(stderr, "sculptctl replay: cannot create the virtual devices ({}){}\n", e.what(),
-               errno == ENOENT || errno == EACCES ? "; replay needs write access to /dev/uinput" : "");
+    cli::error(fmt::format("replay: cannot create the virtual devices ({}){}", e.what(),
+               errno == ENOENT || errno == EACCES ? "; replay needs write access to /dev/uinput" : ""));
     throw CommandFailed{1};
   }
   for (std::size_t i = 0; i < devices.size(); ++i)
@@ -140,7 +141,7 @@ void run(const ReplayArgs& args) {
       ++frames;
     }
   } catch (const input::SessionError& e) {
-    fmt::print(stderr, "sculptctl replay: {}\n", e.what());
+    cli::error(fmt::format("replay: {}", e.what()));
     throw CommandFailed{2};
   }
   if (!g_stop) {

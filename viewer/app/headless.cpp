@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include "app/run.hpp"
+#include "cli/conventions.hpp"
 #include "gl/egl_headless.hpp"
 #include "gl/fbo.hpp"
 #include "render/renderer.hpp"
@@ -10,7 +11,7 @@ namespace sculpt::view {
 
 int run_headless(const Options& options, Source& source) {
   gl::HeadlessContext context;
-  if (!options.quiet) fmt::print(stderr, "sculpt-view: headless ({}, {})\n", context.platform(), context.renderer());
+  if (!options.quiet) cli::note(fmt::format("headless ({}, {})", context.platform(), context.renderer()));
   gl::Fbo fbo(options.width, options.height, options.samples);
   Renderer renderer;
   Run run(options, source, options.scene.empty());  // offline images stay reproducible: no FPS

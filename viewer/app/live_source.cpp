@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "app/source.hpp"
+#include "cli/conventions.hpp"
 #include "client/connection.hpp"
 #include "client/mesh_mirror.hpp"
 #include "client/socket_path.hpp"
@@ -192,7 +193,7 @@ class LiveSource final : public Source {
 
  private:
   void say(const std::string& text) const {
-    if (!options_.quiet) fmt::print(stderr, "sculpt-view: {}\n", text);
+    if (!options_.quiet) cli::note(text);
   }
 
   void note_down(const std::string& why) {

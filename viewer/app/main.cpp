@@ -4,12 +4,14 @@
 #include <cstdlib>
 #include <exception>
 
+#include "cli/conventions.hpp"
 #include "app/options.hpp"
 #include "app/run.hpp"
 #include "app/source.hpp"
 
 int main(int argc, char** argv) {
   using namespace sculpt::view;
+  sculpt::cli::set_program("sculpt-view");
   int exit_code = 0;
   const auto options = parse_options(argc, argv, exit_code);
   if (!options) return exit_code;
@@ -17,7 +19,7 @@ int main(int argc, char** argv) {
   try {
     const bool display = std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
     if (options->window && !display) {
-      fmt::print(stderr, "sculpt-view: --window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set)\n");
+      sculpt::cli::error("--window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set)");
       return 2;
     }
     // Images on request are made offscreen unless a window is asked for.
@@ -25,14 +27,14 @@ int main(int argc, char** argv) {
                           (!options->window && (!options->snapshot.empty() || !options->frames_dir.empty()));
 #ifndef SCULPT_VIEW_HAVE_SDL
     if (!headless) {
-      fmt::print(stderr, "sculpt-view: built without SDL2: no window mode (use --headless)\n");
+      sculpt::cli::error("built without SDL2: no window mode (use --headless)");
       return 2;
     }
 #endif
     if (headless && options->snapshot.empty() && options->frames_dir.empty()) {
-      fmt::print(stderr, "sculpt-view: {}: nothing to write; give --snapshot FILE.png or --frames-dir DIR, "
-                         "or run it under a display for a window\n",
-                 display ? "--headless" : "no display (neither DISPLAY nor WAYLAND_DISPLAY is set)");
+      sculpt::cli::error(fmt::format("{}: nothing to write; give --snapshot FILE.png or --frames-dir DIR, "
+                                     "or run it under a display for a window",
+                                     display ? "--headless" : "no display (neither DISPLAY nor WAYLAND_DISPLAY is set)"));
       return 2;
     }
     check_outputs(*options);
@@ -42,7 +44,7 @@ int main(int argc, char** argv) {
     return run_window(*options, *source);
 #endif
   } catch (const std::exception& e) {
-    fmt::print(stderr, "sculpt-view: {}\n", e.what());
+    sculpt::cli::error(e.what());
     return 1;
   }
   return 0;

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "cli/conventions.hpp"
+
 namespace sculpt::view {
 
 namespace {
@@ -72,24 +74,25 @@ void check_outputs(const Options& o) {
 std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
   Options o;
   CLI::App app{"sculpt-view: watch sculptd's meshes (headless PNGs or a window)"};
+  cli::apply_conventions(app);
   app.set_version_flag("--version", std::string("sculpt-view 0.1.0 (protocol 1)"));
   std::string size = "1280x720", camera, target;
   long after_frames = -1;
   double after_seconds = -1;
   bool no_overlay = false, no_tools = false;
   app.add_option("--socket", o.socket, "sculptd's socket (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY, "
-                                        "$XDG_RUNTIME_DIR/sculptd, /run/sculptd)");
-  app.add_option("--scene", o.scene, "render a scene file (or builtin:default) without a daemon");
+                                        "$XDG_RUNTIME_DIR/sculptd, /run/sculptd)")->type_name("PATH");
+  app.add_option("--scene", o.scene, "render a scene file (or builtin:default) without a daemon")->type_name("SCENE");
   app.add_flag("--headless", o.headless, "render offscreen (EGL surfaceless); the default without a display");
   app.add_flag("--window", o.window, "open a window (SDL2) even when --snapshot is given");
-  app.add_option("--snapshot", o.snapshot, "write a PNG and exit (after --after-frames/--after-seconds)");
+  app.add_option("--snapshot", o.snapshot, "write a PNG and exit (after --after-frames/--after-seconds)")->type_name("FILE.png");
   app.add_option("--after-frames", after_frames, "frames to render (once the first state arrived) before --snapshot")
       ->check(CLI::Range(1L, 100000000L));
   app.add_option("--after-seconds", after_seconds, "seconds to run before --snapshot (or before exiting)")
       ->check(CLI::Range(0.0, 1e7));
-  app.add_option("--frames-dir", o.frames_dir, "write every rendered frame as DIR/frame_NNNNNN.png");
+  app.add_option("--frames-dir", o.frames_dir, "write every rendered frame as DIR/frame_NNNNNN.png")->type_name("DIR");
   app.add_option("--fps", o.fps, "frames rendered per second (and of --frames-dir)")->check(CLI::Range(0.1, 1000.0));
-  app.add_option("--size", size, "image or window size WIDTHxHEIGHT");
+  app.add_option("--size", size, "image or window size WIDTHxHEIGHT")->type_name("WxH");
   app.add_option("--msaa", o.samples, "multisample count (0: off)")->check(CLI::Range(0, 16));
   app.add_flag("--wireframe", o.render.wireframe, "draw mesh edges");
   app.add_flag("--boxes", o.render.boxes, "draw the bounding boxes collision uses (meshes yellow, tools cyan)");
@@ -99,16 +102,19 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
   app.add_flag("--no-overlay", no_overlay, "no stats text");
   app.add_flag("--no-tools", no_tools, "do not draw tools and force arrows");
   app.add_option("--camera", camera, "YAW,PITCH[,DISTANCE]: orbit angles in degrees, distance in metres "
-                                     "(default 20,25 and a distance that fits the scene)");
-  app.add_option("--target", target, "X,Y,Z the camera looks at (default: the scene's centre)");
+                                     "(default 20,25 and a distance that fits the scene)")->type_name("YAW,PITCH[,DIST]");
+  app.add_option("--target", target, "X,Y,Z the camera looks at (default: the scene's centre)")->type_name("X,Y,Z");
   app.add_option("--tolerance", o.tolerance_m, "metres a vertex must move before the daemon resends it")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--max-fps", o.max_fps, "frames per second the daemon sends (default: --fps)")->check(CLI::Range(0.0, 10000.0));
   app.add_flag("--wait", o.wait, "keep retrying when no daemon listens yet (default: say so and exit 1)");
-  app.add_option("--screenshot-dir", o.screenshot_dir, "where the window's screenshot key writes PNGs");
+  app.add_option("--screenshot-dir", o.screenshot_dir, "where the window's screenshot key writes PNGs")->type_name("DIR");
   app.add_flag("-q,--quiet", o.quiet, "print only errors");
+  if (const auto status = cli::parse(app, argc, argv)) {
+    exit_code = *status;
+    return std::nullopt;
+  }
   try {
-    app.parse(argc, argv);
     std::tie(o.width, o.height) = parse_size(size);
     if (!camera.empty()) parse_camera(camera, o.camera);
     if (!target.empty()) o.camera.target = parse_vec3(target, "--target");
@@ -116,12 +122,9 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
     if (after_seconds >= 0) o.after_seconds = after_seconds;
     if (o.headless && o.window) throw std::invalid_argument("--headless and --window exclude each other");
     if (!o.scene.empty() && !o.socket.empty()) throw std::invalid_argument("--scene (offline) and --socket exclude each other");
-  } catch (const CLI::ParseError& e) {
-    exit_code = app.exit(e) == 0 ? 0 : 2;   // --help/--version: 0; usage errors: 2
-    return std::nullopt;
   } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "sculpt-view: {}\n", e.what());
-    exit_code = 2;
+    cli::error(e.what());
+    exit_code = cli::kExitUsage;
     return std::nullopt;
   }
   o.render.overlay = !no_overlay;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "app/run.hpp"
+#include "cli/conventions.hpp"
 #include "gl/fbo.hpp"
 #include "render/renderer.hpp"
 
@@ -115,8 +116,8 @@ int run_window(const Options& options, Source& source) {
   SDL_GL_SetSwapInterval(1);
   pin_gl_driver();
   if (!options.quiet) {
-    fmt::print(stderr, "sculpt-view: window on {} ({})\n", SDL_GetCurrentVideoDriver(),
-               reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+    cli::note(fmt::format("window on {} ({})", SDL_GetCurrentVideoDriver(),
+                          reinterpret_cast<const char*>(glGetString(GL_RENDERER))));
   }
   RenderOptions render = options.render;
   Renderer renderer;
@@ -204,9 +205,9 @@ int run_window(const Options& options, Source& source) {
       try {
         const std::string file = screenshot_name(options.screenshot_dir);
         write_png(file, read());
-        fmt::print(stderr, "sculpt-view: screenshot {}\n", file);
+        cli::note("screenshot " + file);
       } catch (const std::exception& e) {
-        fmt::print(stderr, "sculpt-view: screenshot not written: {}\n", e.what());
+        cli::warning(std::string("screenshot not written: ") + e.what());
       }
     }
     const bool more = run.after_frame(read);

@@ -43,13 +43,41 @@ class Cli(unittest.TestCase):
         r = run("--input", "mouse")
         self.assertNotEqual(r.returncode, 0)
         self.assertIn('--input: "mouse"', r.stderr)
-        self.assertTrue(r.stderr.startswith("<3>"), r.stderr)  # sd-daemon priority prefix
+        # Not the journal: the programs' one voice, no sd-daemon prefix.
+        self.assertTrue(r.stderr.startswith("sculptd: error: "), r.stderr)
         r = run("--scene", "/nonexistent/scene.toml", "--duration", "1")
         self.assertEqual(r.returncode, 1)
         self.assertIn("/nonexistent/scene.toml", r.stderr)
         r = subprocess.run([SCULPTD, "--config", "/nonexistent/sculptd.conf"], capture_output=True, text=True)
         self.assertEqual(r.returncode, 1)
         self.assertIn("/nonexistent/sculptd.conf", r.stderr)
+
+    def test_priority_prefixes_only_when_stderr_is_the_journal(self):
+        with tempfile.TemporaryFile("w+") as journal:
+            st = os.fstat(journal.fileno())
+            env = dict(os.environ, JOURNAL_STREAM=f"{st.st_dev}:{st.st_ino}")
+            r = subprocess.run([SCULPTD, "--config", os.devnull, "--input", "mouse"], stdout=subprocess.DEVNULL,
+                               stderr=journal, env=env, timeout=60)
+            self.assertEqual(r.returncode, 1)
+            journal.seek(0)
+            text = journal.read()
+            self.assertTrue(text.startswith("<3>"), text)  # journald keeps the level
+            # The variable inherited, but stderr is somewhere else (a pipe): plain words.
+            r = subprocess.run([SCULPTD, "--config", os.devnull, "--input", "mouse"], capture_output=True,
+                               text=True, env=env, timeout=60)
+            self.assertTrue(r.stderr.startswith("sculptd: error: "), r.stderr)
+
+    def test_usage_errors_are_named_with_status_2(self):
+        r = subprocess.run([SCULPTD, "--frobnicate"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("sculptd: error: unknown option '--frobnicate'", r.stderr)
+        self.assertIn("--scene", r.stderr)  # the valid ones are listed
+        r = subprocess.run([SCULPTD, "stray"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("unexpected argument 'stray'", r.stderr)
+        r = subprocess.run([SCULPTD, "--rate", "fast"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("--rate", r.stderr)
 
     def test_check_reports_config_errors_with_line_and_key(self):
         with tempfile.NamedTemporaryFile("w", suffix=".conf", delete=False) as f:

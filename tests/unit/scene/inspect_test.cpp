@@ -118,7 +118,7 @@ TEST(Inspect, BadInputExitsNonZeroWithOneLine) {
     EXPECT_TRUE(r.out.empty()) << f;
     ASSERT_FALSE(r.err.empty()) << f;
     EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << f << ": " << r.err;
-    EXPECT_EQ(r.err.rfind("error: " + (data_dir() / f).string(), 0), 0u) << r.err;
+    EXPECT_EQ(r.err.rfind("sculptctl: error: " + (data_dir() / f).string(), 0), 0u) << r.err;
   }
 }
 
