@@ -1,10 +1,14 @@
 // scripts/demo end to end, shortened (--quick), with the programs of this
 // build: it exits 0, both viewers' snapshots and the image sequence exist and
-// show the meshes, and the sequence moves (the session sculpts).
+// show the meshes, and the sequence moves (the session sculpts). The sequence
+// holds what the viewer drew, each picture once, and its timing file lists
+// every frame with how long it was shown.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "child.hpp"
 #include "image_compare.hpp"
@@ -29,9 +33,35 @@ TEST(Demo, QuickRunWritesImagesThatShowTheSculpt) {
   EXPECT_GT(mesh_colour_fraction(view::read_png(out + "/viewer-a.png")), 0.01);
 
   std::vector<std::filesystem::path> frames;
-  for (const auto& e : std::filesystem::directory_iterator(out + "/frames")) frames.push_back(e.path());
+  for (const auto& e : std::filesystem::directory_iterator(out + "/frames"))
+    if (e.path().extension() == ".png") frames.push_back(e.path());
   std::sort(frames.begin(), frames.end());
   ASSERT_GE(frames.size(), 3u);
+  for (std::size_t i = 1; i < frames.size(); ++i)
+    EXPECT_NE(view::read_png(frames[i - 1]).rgba, view::read_png(frames[i]).rgba)
+        << frames[i] << " repeats the frame before it";
+  std::ifstream timing(out + "/frames/frames.ffconcat");
+  ASSERT_TRUE(timing) << "no timing file";
+  std::string line;
+  std::getline(timing, line);
+  EXPECT_EQ(line, "ffconcat version 1.0");
+  std::size_t listed = 0;
+  double shown_s = 0;
+  while (std::getline(timing, line)) {
+    std::istringstream words(line);
+    std::string key, value;
+    words >> key >> value;
+    if (key == "file") {
+      EXPECT_TRUE(std::filesystem::exists(out + "/frames/" + value)) << line;
+      ++listed;
+    } else if (key == "duration") {
+      EXPECT_GT(std::stod(value), 0.0) << line;
+      shown_s += std::stod(value);
+    }
+  }
+  EXPECT_EQ(listed, frames.size() + 1) << "each frame once, and the last once more for ffmpeg";
+  EXPECT_GT(shown_s, 1.0) << "the --quick run lasts 4 s";
+  EXPECT_NE(demo.log().find("frames drawn in"), std::string::npos) << "the demo says the real rate: " << demo.log();
   const view::Image first = view::read_png(frames.front());
   const view::Image last = view::read_png(frames.back());
   EXPECT_GT(content_fraction(first), 0.05);

@@ -6,6 +6,8 @@
 #include <csignal>
 #include <filesystem>
 
+#include "cli/conventions.hpp"
+
 namespace sculpt::view {
 
 std::atomic<bool> g_stop{false};
@@ -28,7 +30,7 @@ Run::Run(const Options& options, Source& source, bool show_fps)
       fps_since_(start_),
       next_frame_(start_),
       period_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.fps))) {
-  if (!options_.frames_dir.empty()) std::filesystem::create_directories(options_.frames_dir);
+  if (!options_.frames_dir.empty()) sequence_.emplace(options_.frames_dir);
 }
 
 void Run::wait_for_frame(bool paced) {
@@ -50,7 +52,7 @@ void Run::count_frame() {
 int Run::exit_code() const {
   const std::string why = failure();
   if (why.empty()) return 0;
-  fmt::print(stderr, "sculpt-view: {}\n", why);
+  cli::error(why);
   return 1;
 }
 
@@ -111,16 +113,10 @@ std::string Run::failure() const {
   return "";
 }
 
-void Run::write_sequence(const Image& image) {
-  ++sequence_;
-  const auto file = std::filesystem::path(options_.frames_dir) / fmt::format("frame_{:06d}.png", sequence_);
-  write_png(file, image);
-}
-
 void Run::write_snapshot(const Image& image) {
   write_png(options_.snapshot, image);
   snapshot_written_ = true;
-  if (!options_.quiet) fmt::print(stderr, "sculpt-view: wrote {} ({}x{})\n", options_.snapshot, image.width, image.height);
+  if (!options_.quiet) cli::note(fmt::format("wrote {} ({}x{})", options_.snapshot, image.width, image.height));
 }
 
 }  // namespace sculpt::view

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "app/frame_sequence.hpp"
 #include "app/options.hpp"
 #include "app/source.hpp"
 #include "gl/png_io.hpp"
@@ -36,8 +37,8 @@ class Run {
   Camera& camera() { return camera_; }
   std::vector<std::string> overlay() const;
 
-  // After a frame was drawn; `read` returns its pixels. Writes the sequence
-  // frame and the snapshot when due. Returns false when the run is over.
+  // After a frame was drawn; `read` returns its pixels. Adds it to the
+  // sequence (frame_sequence.hpp) and writes the snapshot when due. Returns false when the run is over.
   // The pixels are read at most once per frame. Also counts the frame for the
   // overlay's FPS.
   template <class ReadPixels>
@@ -47,7 +48,7 @@ class Run {
       ++frames_;
       std::optional<Image> image;
       const auto pixels = [&]() -> const Image& { return image ? *image : image.emplace(read()); };
-      if (!options_.frames_dir.empty()) write_sequence(pixels());
+      if (sequence_) sequence_->add(pixels(), std::chrono::steady_clock::now());
       if (!options_.snapshot.empty() && snapshot_due()) {
         write_snapshot(pixels());
         return false;
@@ -65,7 +66,6 @@ class Run {
  private:
   void count_frame();
   bool snapshot_due() const;
-  void write_sequence(const Image& image);
   void write_snapshot(const Image& image);
 
   const Options& options_;
@@ -73,7 +73,7 @@ class Run {
   Camera camera_;
   bool placed_ = false;
   long frames_ = 0;
-  long sequence_ = 0;
+  std::optional<FrameSequence> sequence_;  // with --frames-dir
   bool snapshot_written_ = false;
   const bool show_fps_;
   double fps_ = 0;
