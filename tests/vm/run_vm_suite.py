@@ -88,6 +88,7 @@ class Reporter:
         self.done = False
         self.guest_error: str | None = None
         self.ended: set[str] = set()
+        self.began = 0.0  # when the current binary began (host clock): its time goes to the log
         # (name, why, output) of every failed result, repeated at the very end:
         # meson prints only the tail of a long log, and that is what CI shows.
         self.failed: list[tuple[str, str, list[str]]] = []
@@ -105,6 +106,7 @@ class Reporter:
     def begin(self, name: str) -> None:
         self.current = self.binaries.get(name)
         self.running = None
+        self.began = time.monotonic()
         log(f"running {name}")
 
     def line(self, text: str) -> None:
@@ -146,6 +148,9 @@ class Reporter:
         ok = status == 0 and not missing
         reason = why or ("" if status == 0 else describe(status))
         self.result(ok, f"{b.name} (whole binary: exit status, sanitizer reports)", reason if not ok else "")
+        if self.current is b:
+            # What each binary takes is what its timeout must leave room for (docs/testing.md).
+            log(f"{b.name} took {time.monotonic() - self.began:.1f} s")
         self.current = None
         self.ended.add(b.name)
 
