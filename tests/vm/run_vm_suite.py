@@ -70,6 +70,7 @@ class Binary:
     name: str
     path: Path
     tests: list[str]
+    timeout_s: int = 60        # the guest kills it after this (already times --slowdown)
     reported: set[str] = field(default_factory=set)
 
 
@@ -150,7 +151,7 @@ class Reporter:
         self.result(ok, f"{b.name} (whole binary: exit status, sanitizer reports)", reason if not ok else "")
         if self.current is b:
             # What each binary takes is what its timeout must leave room for (docs/testing.md).
-            log(f"{b.name} took {time.monotonic() - self.began:.1f} s")
+            log(f"{b.name} took {time.monotonic() - self.began:.1f} s (limit {b.timeout_s} s)")
         self.current = None
         self.ended.add(b.name)
 
@@ -221,28 +222,28 @@ def forwarded_env() -> dict[str, str]:
     return {k: v for k, v in os.environ.items() if FORWARDED_ENV.match(k)}
 
 
-def run_on_host(binaries: list[Binary], timeout_s: int) -> Reporter:
+def run_on_host(binaries: list[Binary]) -> Reporter:
     rep = Reporter(binaries)
     for b in binaries:
         rep.begin(b.name)
         res = qemu_boot.run_streaming([str(b.path), "--gtest_color=no"],
-                                      lambda l: (print(l, file=sys.stderr), rep.line(l)), timeout_s)
+                                      lambda l: (print(l, file=sys.stderr), rep.line(l)), b.timeout_s)
         rep.end(b.name, res.exit_status if not res.timed_out else None,
-                f"killed after {timeout_s} s" if res.timed_out else "")
+                f"killed after {b.timeout_s} s" if res.timed_out else "")
     return rep
 
 
-def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Reporter:
+def run_in_vm(binaries: list[Binary], args, qemu: str) -> Reporter:
     t0 = time.monotonic()
     kernel = guest_kernel.fetch(log=log)
     log(f"guest kernel {kernel.release} ({kernel.package}), from {kernel.directory} "
         f"[{time.monotonic() - t0:.1f} s]")
     work = Path(args.work_dir)
-    tests = [initramfs.GuestTest(b.name, b.path, ["--gtest_color=no"]) for b in binaries]
+    tests = [initramfs.GuestTest(b.name, b.path, ["--gtest_color=no"], b.timeout_s) for b in binaries]
     t1 = time.monotonic()
     image = initramfs.build(work / ("initramfs-udev.cpio" if args.udevd else "initramfs.cpio"),
                             kernel.release, kernel.modules, tests,
-                            env=forwarded_env(), test_timeout_s=timeout_s,
+                            env=forwarded_env(),
                             with_paths=args.with_paths, udevd=args.udevd)
     log(f"initramfs {image} ({image.stat().st_size / 1e6:.1f} MB) [{time.monotonic() - t1:.1f} s]")
 
@@ -257,7 +258,8 @@ def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Report
     rep = Reporter(binaries)
     boot_deadline = 60 * args.slowdown
     total = float(os.environ.get("SCULPTD_VM_SUITE_TIMEOUT") or
-                  boot_deadline + len(binaries) * (timeout_s + 5))
+                  boot_deadline + sum(b.timeout_s + 5 for b in binaries))
+    limits = {b.name: b.timeout_s for b in binaries}
 
     def on_line(line: str) -> None:
         print(line, file=sys.stderr, flush=True)
@@ -281,7 +283,7 @@ def run_in_vm(binaries: list[Binary], args, timeout_s: int, qemu: str) -> Report
             rep.begin(words[1])
         elif kind == "end" and len(words) > 2:
             status = int(words[2]) if words[2].isdigit() else None
-            why = f"killed after {timeout_s} s in the guest (hung?)" if status == 137 else ""
+            why = f"killed after {limits.get(words[1], 0)} s in the guest (hung?)" if status == 137 else ""
             rep.end(words[1], status, why)
         elif kind == "udevd":
             log(f"guest udevd: {' '.join(words[1:])}")
@@ -318,6 +320,8 @@ def main() -> int:
     ap.add_argument("--slowdown", type=float, default=1.0, help="timeout multiplier (sanitized builds)")
     ap.add_argument("--with", dest="with_paths", action="append", type=Path, default=[], metavar="PATH",
                     help="file or directory the guest needs at the same absolute path (repeatable)")
+    ap.add_argument("--timeout", dest="timeouts", action="append", default=[], metavar="BINARY=SECONDS",
+                    help="seconds that binary may take, before --slowdown (default 60; repeatable)")
     ap.add_argument("--udevd", action="store_true",
                     help="run systemd-udevd (with the host's rules) in the guest before the tests")
     ap.add_argument("binaries", nargs="+", type=Path)
@@ -372,16 +376,24 @@ def main() -> int:
         tap(f"Bail out! cannot list the tests: {e}")
         return 1
 
+    # Each binary's limit: SCULPTD_VM_TEST_TIMEOUT for all, as given; else its
+    # --timeout (or 60 s), times --slowdown.
+    try:
+        own = {name: float(s) for name, s in (t.split("=", 1) for t in args.timeouts)}
+    except ValueError:
+        tap(f"Bail out! --timeout takes BINARY=SECONDS, not {args.timeouts}")
+        return 1
     env_timeout = os.environ.get("SCULPTD_VM_TEST_TIMEOUT")
-    timeout_s = int(float(env_timeout or 60) * (1 if env_timeout else args.slowdown))
+    for b in binaries:
+        b.timeout_s = int(float(env_timeout)) if env_timeout else int(own.get(b.name, 60) * args.slowdown)
     start = time.monotonic()
     try:
         if use_host:
             log(f"/dev/uinput is usable here: running {len(binaries)} binaries on the host")
             tap("# vm: running on the host (/dev/uinput usable), no VM")
-            rep = run_on_host(binaries, timeout_s)
+            rep = run_on_host(binaries)
         else:
-            rep = run_in_vm(binaries, args, timeout_s, qemu)
+            rep = run_in_vm(binaries, args, qemu)
     except (guest_kernel.KernelError, initramfs.ImageError, OSError) as e:
         log(f"FAILED: {e}")
         tap(f"Bail out! {str(e).splitlines()[0]}")

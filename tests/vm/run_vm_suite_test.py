@@ -55,10 +55,10 @@ class RunnerTest(unittest.TestCase):
 
     def run_host(self, scenario, timeout_s=30):
         os.environ["FAKE"] = scenario
-        b = runner.Binary("fake_test", self.fake, runner.list_tests(self.fake))
+        b = runner.Binary("fake_test", self.fake, runner.list_tests(self.fake), timeout_s)
         out, err = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            rep = runner.run_on_host([b], timeout_s)
+            rep = runner.run_on_host([b])
         return rep, out.getvalue().splitlines()
 
     def test_lists_cases_including_parameterised_ones(self):
@@ -120,12 +120,14 @@ class InitramfsTest(unittest.TestCase):
         self.assertIn("crw", listing)
 
     def test_init_runs_every_test_under_a_timeout_with_quoted_env(self):
-        tests = [initramfs.GuestTest("a_test", Path("/x/a_test"), ["--gtest_color=no"])]
+        tests = [initramfs.GuestTest("a_test", Path("/x/a_test"), ["--gtest_color=no"]),
+                 initramfs.GuestTest("long_test", Path("/x/long_test"), [], 180)]
         script = initramfs.init_script("6.1.0", tests, {"ASAN_OPTIONS": "a=1:b='2'"}, 42,
                                        ["evdev", "uinput"], probe_only=False)
         self.assertIn("insmod /lib/sculpt/evdev.ko", script)
         self.assertIn("insmod /lib/sculpt/uinput.ko", script)
         self.assertIn("timeout -s KILL 42 /tests/a_test --gtest_color=no", script)
+        self.assertIn("timeout -s KILL 180 /tests/long_test", script)  # its own limit
         self.assertIn("export ASAN_OPTIONS='a=1:b='\"'\"'2'\"'\"''", script)
         self.assertLess(script.index("begin a_test"), script.index("end a_test"))
         self.assertTrue(script.rstrip().endswith("poweroff -f"))
@@ -167,6 +169,20 @@ class WithAndUdevdTest(unittest.TestCase):
         names = self.listing(a)
         self.assertIn(str(Path(sys.executable).resolve()).lstrip("/"), names)
         self.assertTrue(any("libc.so" in n for n in names), names[:20])
+
+    def test_executables_go_in_without_debug_sections_but_with_symbols(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            src, exe = Path(tmp) / "t.c", Path(tmp) / "t"
+            src.write_text("int debug_me(int x) { return x * 2; }\nint main(void) { return debug_me(0); }\n")
+            subprocess.run(["cc", "-g", "-O0", str(src), "-o", str(exe)], check=True)
+            stripped = Path(tmp) / "stripped"
+            stripped.write_bytes(initramfs.elf_without_debug(exe))
+            sections = subprocess.run(["objdump", "-h", str(stripped)], capture_output=True, text=True,
+                                      check=True).stdout
+            symbols = subprocess.run(["nm", str(stripped)], capture_output=True, text=True, check=True).stdout
+            self.assertLess(stripped.stat().st_size, exe.stat().st_size)
+        self.assertNotIn(".debug_info", sections)
+        self.assertIn("debug_me", symbols)  # a crash in the guest still names the function
 
     def test_with_a_missing_path_is_a_clear_error(self):
         with self.assertRaisesRegex(initramfs.ImageError, "no such file"):
