@@ -3,8 +3,9 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <iostream>
 #include <memory>
+
+#include <CLI/CLI.hpp>
 
 namespace sculpt::cli {
 namespace {
@@ -16,15 +17,7 @@ std::string& program_name() {
 
 void write_line(std::string line) {
   line += '\n';
-  const char* p = line.data();
-  std::size_t left = line.size();
-  while (left > 0) {
-    const ssize_t n = ::write(STDERR_FILENO, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;
-    p += static_cast<std::size_t>(n);
-    left -= static_cast<std::size_t>(n);
-  }
+  write_stderr(line);
 }
 
 // CLI11's type name is "TYPE" or "TYPE:validator text" ("INT:INT in [1 - 16]",
@@ -114,6 +107,18 @@ std::string command_path(const CLI::App& app, const CLI::App* at) {
 }
 
 }  // namespace
+
+void write_stderr(std::string_view text) {
+  const char* p = text.data();
+  std::size_t left = text.size();
+  while (left > 0) {
+    const ssize_t n = ::write(STDERR_FILENO, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return;
+    p += static_cast<std::size_t>(n);
+    left -= static_cast<std::size_t>(n);
+  }
+}
 
 void set_program(std::string_view name) { program_name() = std::string(name); }
 const std::string& program() { return program_name(); }

@@ -11,7 +11,12 @@
 #include <string>
 #include <string_view>
 
-#include <CLI/CLI.hpp>
+// Declared, not included: CLI11 costs seconds of compile time in every file
+// that includes it, and most callers only print messages.
+namespace CLI {
+class App;
+class ParseError;
+}  // namespace CLI
 
 namespace sculpt::cli {
 
@@ -26,6 +31,10 @@ const std::string& program();
 void error(std::string_view message);
 void warning(std::string_view message);
 void note(std::string_view message);
+
+// `text` (newline included) on stderr in as few write(2) calls as it takes,
+// retrying on EINTR: a line from one thread never interleaves with another's.
+void write_stderr(std::string_view text);
 
 // The help layout above, for `app` and every subcommand added to it later.
 void apply_conventions(CLI::App& app);

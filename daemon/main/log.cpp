@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "cli/conventions.hpp"
+
 namespace sculpt::log {
 namespace {
 
@@ -84,15 +86,7 @@ void write(Level lvl, std::string_view message) {
   // One message, one journal entry: embedded newlines would split it.
   for (char c : message) line += c == '\n' ? ' ' : c;
   line += '\n';
-  const char* p = line.data();
-  std::size_t left = line.size();
-  while (left > 0) {
-    const ssize_t n = ::write(STDERR_FILENO, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
+  cli::write_stderr(line);
 }
 
 }  // namespace sculpt::log
