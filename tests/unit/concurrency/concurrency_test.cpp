@@ -31,9 +31,12 @@ TEST(SpscRing, RoundsCapacityAndRefusesWhenFull) {
 TEST(SpscRing, TwoThreadsLoseAndReorderNothing) {
   SpscRing<std::uint64_t> ring(64);
   constexpr std::uint64_t kCount = 200'000;
+  // A full or empty ring yields: on a busy machine the other side may not
+  // be running, and spinning out the time slice only waits for it longer.
   std::thread producer([&] {
     for (std::uint64_t i = 0; i < kCount;) {
       if (ring.try_push(i)) ++i;
+      else std::this_thread::yield();
     }
   });
   std::uint64_t expected = 0;
@@ -41,6 +44,8 @@ TEST(SpscRing, TwoThreadsLoseAndReorderNothing) {
     if (auto v = ring.try_pop()) {
       ASSERT_EQ(*v, expected);
       ++expected;
+    } else {
+      std::this_thread::yield();
     }
   }
   producer.join();
