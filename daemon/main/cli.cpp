@@ -1,5 +1,9 @@
 #include "main/cli.hpp"
 
+#include <CLI/CLI.hpp>
+
+#include "cli/conventions.hpp"
+
 namespace sculpt::daemon {
 namespace {
 
@@ -30,6 +34,14 @@ void add_options(CLI::App& app, CliOptions& o) {
   optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit");
   optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)");
   app.add_flag("--check", o.check, "check the config and the scene, then exit");
+}
+
+std::optional<int> parse_command_line(int argc, char** argv, CliOptions& out) {
+  CLI::App app{"sculptd " SCULPTD_VERSION ": joysticks push and pull elastic meshes, with force feedback"};
+  cli::apply_conventions(app);
+  app.set_version_flag("--version", SCULPTD_VERSION);
+  add_options(app, out);
+  return cli::parse(app, argc, argv);
 }
 
 void CliOptions::apply(DaemonConfig& c) const {

@@ -1,14 +1,18 @@
-// sculptd's command line (CLI11). Flags override the config file; every flag
-// given is kept so a SIGHUP reload re-applies it on top of the new file.
+// sculptd's command line (CLI11, included only by cli.cpp: it costs seconds
+// of compile time in every file that includes it). Flags override the config
+// file; every flag given is kept so a SIGHUP reload re-applies it on top of
+// the new file.
 #pragma once
 
 #include <filesystem>
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "main/config.hpp"
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace sculpt::daemon {
 
@@ -26,5 +30,9 @@ struct CliOptions {
 
 // Declares every option on `app`, bound to `out`.
 void add_options(CLI::App& app, CliOptions& out);
+
+// Parses sculptd's command line into `out` (cli/conventions.hpp): nullopt to
+// go on, else the status to exit with (--help, --version, a usage error).
+std::optional<int> parse_command_line(int argc, char** argv, CliOptions& out);
 
 }  // namespace sculpt::daemon

@@ -2,8 +2,6 @@
 #include <cstdio>
 #include <exception>
 
-#include <CLI/CLI.hpp>
-
 #include "cli/conventions.hpp"
 #include "main/cli.hpp"
 #include "main/config.hpp"
@@ -12,19 +10,11 @@
 #include "main/log.hpp"
 #include "scene/scene.hpp"
 
-#ifndef SCULPTD_VERSION
-#define SCULPTD_VERSION "unknown"
-#endif
-
 int main(int argc, char** argv) {
   using namespace sculpt;
   cli::set_program("sculptd");
-  CLI::App app{"sculptd " SCULPTD_VERSION ": joysticks push and pull elastic meshes, with force feedback"};
-  cli::apply_conventions(app);
-  app.set_version_flag("--version", SCULPTD_VERSION);
   daemon::CliOptions options;
-  daemon::add_options(app, options);
-  if (const auto status = cli::parse(app, argc, argv)) return *status;
+  if (const auto status = daemon::parse_command_line(argc, argv, options)) return *status;
   daemon::RunOptions run;
   try {
     run.config = daemon::load_config(options.config, !options.config_given);

@@ -13,21 +13,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "commands.hpp"
 #include "common.hpp"
 #include "lab/accuracy.hpp"
 #include "sim/world.hpp"
 
 namespace sculpt::bench {
 namespace {
-
-struct AccuracyOptions {
-  std::string problems = "oscillator,chain,mesh";
-  std::string integrators = "all";
-  std::string precision = "both";
-  std::string dts, substeps;
-  std::string impl = "daemon";
-  OutputOptions out;
-};
 
 const std::vector<std::string> kColumns = {"problem",   "integrator",   "precision",    "impl",     "dt",
                                            "substeps",  "h",            "seconds",      "spring_passes",
@@ -99,6 +91,8 @@ void plot_problem(const Report& report, const std::string& problem) {
   report.plot("accuracy_" + problem + ".png", g.str());
 }
 
+}  // namespace
+
 int accuracy(const AccuracyOptions& o) {
   std::vector<lab::Method> methods;
   if (o.integrators == "all") {
@@ -161,22 +155,6 @@ int accuracy(const AccuracyOptions& o) {
     for (const lab::Problem& p : problems) plot_problem(report, p.name);
   }
   return 0;
-}
-
-}  // namespace
-
-Command add_accuracy(CLI::App& app) {
-  static AccuracyOptions o;
-  CLI::App* a = app.add_subcommand("accuracy", "error against run time: six integrators, float and double, a dt sweep");
-  a->add_option("--problem", o.problems, "comma-separated: oscillator, chain, mesh (default: all three)");
-  a->add_option("--integrator", o.integrators,
-                "comma-separated: verlet, velocity_verlet, symplectic_euler, explicit_euler, implicit_euler, xpbd, or all");
-  a->add_option("--precision", o.precision, "float | double | both");
-  a->add_option("--dt", o.dts, "tick lengths in seconds, comma-separated (default: the problem's sweep)");
-  a->add_option("--substeps", o.substeps, "substeps per tick, comma-separated (default: 1; xpbd 1,4,16)");
-  a->add_option("--impl", o.impl, "daemon (sim::World runs its three integrators) | lab (the lab's copies)");
-  o.out.add_to(a);
-  return {a, [] { return accuracy(o); }};
 }
 
 }  // namespace sculpt::bench

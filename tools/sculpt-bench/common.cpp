@@ -84,12 +84,6 @@ std::vector<double> parse_list(const std::string& option, const std::string& tex
   return out;
 }
 
-void OutputOptions::add_to(CLI::App* app) {
-  app->add_flag("--json", json, "one JSON object per measured case, one per line");
-  app->add_option("--out", out, "write CSV and PNG plots (gnuplot) into this directory, e.g. docs/benchmarks");
-  app->add_flag("--quiet", quiet, "no progress on stderr");
-}
-
 void Report::add(const nlohmann::json& row) {
   rows_.push_back(row);
   if (o_.json) {

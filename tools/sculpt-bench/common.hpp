@@ -2,7 +2,6 @@
 // lines, CSV, gnuplot PNGs) and progress on stderr.
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -27,16 +26,6 @@ long anon_huge_page_bytes();
 // Comma-separated numbers ("0.004,0.002"); names the option on bad input.
 std::vector<double> parse_list(const std::string& option, const std::string& text);
 
-// A subcommand: registers its options, and runs when parsed.
-struct Command {
-  CLI::App* app;
-  std::function<int()> run;
-};
-Command add_throughput(CLI::App& app);
-Command add_accuracy(CLI::App& app);
-Command add_stability(CLI::App& app);
-Command add_skip(CLI::App& app);
-
 // Output shared by the measuring commands: --json prints one object per case
 // (else a readable line per case); every case also becomes a CSV row, and
 // --out DIR writes <name>.csv plus the plots (gnuplot) when the command ends.
@@ -44,7 +33,6 @@ struct OutputOptions {
   bool json = false;
   std::string out;   // directory for CSV and PNG; empty = none
   bool quiet = false;  // no progress on stderr
-  void add_to(CLI::App* app);
 };
 
 class Report {

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "commands.hpp"
 #include "common.hpp"
 #include "lab/deltas.hpp"
 #include "scene/scene.hpp"
@@ -23,15 +24,6 @@ namespace sculpt::bench {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-struct SkipOptions {
-  std::string scene = "builtin:default";
-  int ticks = 1000;
-  double fps = 60.0;
-  std::string tolerances = "1e-5,3e-5,1e-4,3e-4,1e-3";
-  std::string sleep_speeds = "1e-5,1e-4,1e-3";
-  OutputOptions out;
-};
 
 const std::vector<std::string> kColumns = {
     "scene",        "sweep",          "sleep_speed",      "tolerance",       "ms_per_tick_all", "ms_per_tick_skipping",
@@ -191,6 +183,8 @@ nlohmann::json measure(const SkipOptions& o, const scene::Scene& sc, double slee
   return r;
 }
 
+}  // namespace
+
 int skip(const SkipOptions& o) {
   if (o.ticks < 100) throw std::invalid_argument("--ticks must be >= 100");
   if (!(o.fps > 0)) throw std::invalid_argument("--fps must be > 0");
@@ -230,20 +224,6 @@ int skip(const SkipOptions& o) {
                 "unset multiplot\n");
   }
   return 0;
-}
-
-}  // namespace
-
-Command add_skip(CLI::App& app) {
-  static SkipOptions o;
-  CLI::App* a = app.add_subcommand("skip", "what sleeping saves: ms per tick and bytes streamed, active vs idle");
-  a->add_option("--scene", o.scene, "scene file or builtin:default (a multi-mesh scene; the tool sculpts mesh 0)");
-  a->add_option("--ticks", o.ticks, "ticks sculpting (and ticks idle)");
-  a->add_option("--fps", o.fps, "viewer frames per second (deltas coalesce between frames)");
-  a->add_option("--tolerance", o.tolerances, "delta tolerances to sweep, m, comma-separated");
-  a->add_option("--sleep-speed", o.sleep_speeds, "sleep speeds to sweep, m/s, comma-separated");
-  o.out.add_to(a);
-  return {a, [] { return skip(o); }};
 }
 
 }  // namespace sculpt::bench

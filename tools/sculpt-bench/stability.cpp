@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "commands.hpp"
 #include "common.hpp"
 #include "lab/stability.hpp"
 #include "scene/scene.hpp"
@@ -26,16 +27,6 @@
 
 namespace sculpt::bench {
 namespace {
-
-struct StabilityOptions {
-  std::string meshes = "shipped";
-  std::string materials = "rubber,clay,jelly";
-  std::string damping = "on,off";
-  std::string scenes = "shipped";
-  int ticks = 1000;
-  double tolerance = 2e-3;
-  OutputOptions out;
-};
 
 const std::vector<std::string> kMeshColumns = {
     "mesh", "material", "damping", "vertices", "springs", "max_degree", "dt_bound_gershgorin", "dt_power_iteration",
@@ -190,6 +181,8 @@ void scene_rows(const StabilityOptions& o, Report& report) {
   }
 }
 
+}  // namespace
+
 int stability(const StabilityOptions& o) {
   if (o.ticks < 100) throw std::invalid_argument("--ticks must be >= 100");
   if (!(o.tolerance > 0 && o.tolerance < 0.5)) throw std::invalid_argument("--tolerance must be in (0, 0.5)");
@@ -218,21 +211,6 @@ int stability(const StabilityOptions& o) {
                 "title 'margin', '' using ($0):12 with lines lw 2 title 'required (1/substep_safety)'\n");
   }
   return 0;
-}
-
-}  // namespace
-
-Command add_stability(CLI::App& app) {
-  static StabilityOptions o;
-  CLI::App* a = app.add_subcommand("stability", "largest stable dt: bisection vs Gershgorin vs power iteration");
-  a->add_option("--mesh", o.meshes, "comma-separated mesh specs, 'shipped' (tests/data/meshes + builtins) or none");
-  a->add_option("--material", o.materials, "comma-separated presets: rubber, clay, jelly");
-  a->add_option("--damping", o.damping, "on, off or on,off");
-  a->add_option("--scene", o.scenes, "comma-separated scene files, 'shipped' (tests/data/scenes + builtin:default) or none");
-  a->add_option("--ticks", o.ticks, "ticks per stability probe");
-  a->add_option("--tolerance", o.tolerance, "relative width of the bisection bracket");
-  o.out.add_to(a);
-  return {a, [] { return stability(o); }};
 }
 
 }  // namespace sculpt::bench

@@ -23,6 +23,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "commands.hpp"
 #include "common.hpp"
 #include "sim/baseline.hpp"
 #include "sim/kernels.hpp"
@@ -35,20 +36,7 @@ using namespace sculpt;
 using namespace sculpt::bench;
 using Clock = std::chrono::steady_clock;
 
-struct Options {
-  std::string mesh = "builtin:icosphere:7";
-  std::string model = "spring";
-  std::string precision = "float";
-  std::string tool = "sphere";
-  std::string impl = "both";
-  std::string records = "auto";  // packed neighbour records: auto (by size) | on | off
-  std::string ring = "on";       // bodies without records: the ring of records (on) or gathers from the arrays
-  int steps = 100;
-  int repeats = 5;
-  bool json = false;
-};
-
-sim::BodyOptions body_options(const Options& o) {
+sim::BodyOptions body_options(const ThroughputOptions& o) {
   sim::BodyOptions bo;
   bo.packed = o.records == "on"    ? sim::PackedRecords::always
               : o.records == "off" ? sim::PackedRecords::never
@@ -89,7 +77,7 @@ struct Run {
 };
 
 template <class S>
-nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& material, const Options& o,
+nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& material, const ThroughputOptions& o,
                         const Press& press, std::optional<sim::BaselineBody>* baseline, Run& base_run) {
   // Kernel throughput: the whole mesh awake (sleeping off), a tool pressing in.
   sim::SimSettings awake_settings;
@@ -191,7 +179,7 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
 
 // Peak resident memory of a process that only loads the mesh, builds the fast
 // world and presses on it for 50 ticks: what sculptd would pay for this mesh.
-long child_peak_rss(const Options& o) {
+long child_peak_rss(const ThroughputOptions& o) {
   int fd[2];
   if (pipe(fd) != 0) return -1;
   const pid_t pid = fork();
@@ -228,7 +216,11 @@ long child_peak_rss(const Options& o) {
   return rss;
 }
 
-int throughput(const Options& o) {
+}  // namespace
+
+namespace sculpt::bench {
+
+int throughput(const ThroughputOptions& o) {
   // Only float bodies have packed records: asking double for a layout would measure the other one silently.
   if (o.records != "auto" && o.precision == "double")
     throw std::invalid_argument("--records " + o.records + " needs --precision float (double has no packed records)");
@@ -290,30 +282,6 @@ int throughput(const Options& o) {
     std::cout << out.dump(2) << std::endl;
   }
   return 0;
-}
-
-}  // namespace
-
-
-namespace sculpt::bench {
-
-Command add_throughput(CLI::App& app) {
-  static Options o;
-  CLI::App* tp = app.add_subcommand("throughput", "steps per second of one mesh under a pressing tool, fast vs baseline");
-  tp->add_option("--mesh", o.mesh, "builtin:icosphere[:N] | builtin:torus[:R:r:rings:sides] | builtin:box[:cells] | FILE");
-  // Checked at parse time: the peak-memory child runs before throughput() looks at them.
-  tp->add_option("--model", o.model, "spring | linear")->check(CLI::IsMember({"spring", "linear"}));
-  tp->add_option("--precision", o.precision, "float | double")->check(CLI::IsMember({"float", "double"}));
-  tp->add_option("--tool", o.tool, "none | sphere")->check(CLI::IsMember({"none", "sphere"}));
-  tp->add_option("--steps", o.steps, "timed ticks per repeat")->check(CLI::Range(1, 1000000));
-  tp->add_option("--repeats", o.repeats, "repeats (medians are reported)")->check(CLI::Range(1, 10000));
-  tp->add_option("--impl", o.impl, "both | fast | baseline")->check(CLI::IsMember({"both", "fast", "baseline"}));
-  tp->add_option("--records", o.records, "packed neighbour records (AVX2 path): auto (by mesh size) | on | off")
-      ->check(CLI::IsMember({"auto", "on", "off"}));
-  tp->add_option("--ring", o.ring, "float bodies without records: the ring of packed records (on) or gathers from the arrays (off)")
-      ->check(CLI::IsMember({"on", "off"}));
-  tp->add_flag("--json", o.json, "one JSON line");
-  return {tp, [] { return throughput(o); }};
 }
 
 }  // namespace sculpt::bench

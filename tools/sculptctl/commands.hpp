@@ -1,28 +1,81 @@
-// sculptctl subcommands: one file each, each adding itself to the app. A new
-// command is a new file plus one line in main.cpp's list.
+// sculptctl's commands: what each one takes and runs, one file each. The
+// command line that fills these in is main.cpp, the only file that includes
+// CLI11 (it costs seconds of compile time in every file that does). A new
+// command is a new file, its Args here, and its options in main.cpp.
 #pragma once
 
-#include <CLI/CLI.hpp>
+#include <cstddef>
+#include <optional>
+#include <string>
 
 namespace sculpt::ctl {
 
-// `inspect FILE [--json]`: offline report of a mesh or scene file (inspect.cpp).
-void add_inspect_command(CLI::App& app);
-// `record FILE` / `replay FILE`: sessions of joystick input (record.cpp, replay.cpp).
-void add_record_command(CLI::App& app);
-void add_replay_command(CLI::App& app);
-// Against a running sculptd (daemon_link.hpp: --socket, --json, exit statuses):
-// `status`, `devices` (status.cpp), `save FILE` (save.cpp), `load SCENE`,
-// `reset`, `pause`, `resume` (control.cpp).
-void add_status_command(CLI::App& app);
-void add_devices_command(CLI::App& app);
-void add_save_command(CLI::App& app);
-void add_control_commands(CLI::App& app);
+// Exit statuses every command shares (daemon_link.hpp adds those of the
+// commands that talk to a running sculptd).
+inline constexpr int kExitCommandFailed = 1;
+inline constexpr int kExitUsage = 2;
 
 // Commands report failure by printing one line to stderr and throwing this;
 // main turns it into the exit status.
 struct CommandFailed {
-  int status = 1;
+  int status = kExitCommandFailed;
 };
+
+// `inspect FILE [--json]`: offline report of a mesh or scene file (inspect.cpp).
+struct InspectArgs {
+  std::string file;
+  bool json = false;
+  bool formats = false;
+  std::string material = "rubber";
+  std::optional<double> weld_tolerance;
+};
+void inspect(const InspectArgs& args);
+
+// `record FILE`: the joysticks into a session file (record.cpp).
+struct RecordArgs {
+  std::string file;
+  double duration = 0;        // 0: until a signal
+  std::size_t wait_for = 0;   // start the clock once this many devices are there
+  double wait_timeout = 10;
+  bool all = false;
+  bool verbose = false;
+  std::string discovery = "auto";
+};
+void record(const RecordArgs& args);
+
+// `replay FILE`: a session through uinput (replay.cpp).
+struct ReplayArgs {
+  std::string file;
+  double speed = 1.0;
+  double settle = 1.0;   // seconds between creating the devices and the first frame
+  double hold = 0.5;     // seconds the devices stay after the last frame
+  bool quiet = false;
+};
+void replay(const ReplayArgs& args);
+
+// Against a running sculptd: --socket and --json (daemon_link.hpp).
+struct DaemonArgs {
+  std::string socket;  // "" : the usual rule (client/socket_path.hpp)
+  bool json = false;
+};
+void status(const DaemonArgs& args);   // status.cpp
+void devices(const DaemonArgs& args);  // status.cpp
+
+// `save FILE [--mesh NAME]` (save.cpp).
+struct SaveArgs {
+  DaemonArgs daemon;
+  std::string file;
+  std::string mesh;  // "": every mesh
+};
+void save(const SaveArgs& args);
+
+// `load SCENE`, `reset`, `pause`, `resume` (control.cpp).
+struct LoadArgs {
+  DaemonArgs daemon;
+  std::string scene;
+};
+void load(const LoadArgs& args);
+enum class Control { reset, pause, resume };
+void control(const DaemonArgs& args, Control what);
 
 }  // namespace sculpt::ctl

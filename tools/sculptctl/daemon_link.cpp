@@ -6,14 +6,6 @@
 
 namespace sculpt::ctl {
 
-void add_daemon_options(CLI::App& cmd, DaemonArgs& args) {
-  cmd.add_option("--socket", args.socket,
-                 "sculptd's socket (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY/sculptd.sock, "
-                 "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)")
-      ->type_name("PATH");
-  cmd.add_flag("--json", args.json, "print JSON instead of text");
-}
-
 void fail(int status, const std::string& message) {
   cli::error(message);
   throw CommandFailed{status};

@@ -1,6 +1,6 @@
-// What the commands that talk to a running sculptd share: the --socket
-// option, one connection per invocation, and one mapping of failures to
-// messages and exit statuses:
+// What the commands that talk to a running sculptd share: one connection per
+// invocation (to --socket, DaemonArgs in commands.hpp), and one mapping of
+// failures to messages and exit statuses:
 //   1  the daemon answered but the command failed (its error is printed)
 //   3  no daemon is listening (nothing at the socket path)
 //   4  the daemon speaks another protocol major, or refused us
@@ -10,25 +10,16 @@
 #include <functional>
 #include <string>
 
-#include <CLI/CLI.hpp>
 #include <kj/async-io.h>
 
 #include "client/connection.hpp"
+#include "commands.hpp"
 
 namespace sculpt::ctl {
 
-inline constexpr int kExitCommandFailed = 1;
 inline constexpr int kExitNoDaemon = 3;
 inline constexpr int kExitIncompatible = 4;
 inline constexpr int kExitConnection = 5;
-
-struct DaemonArgs {
-  std::string socket;  // "" : the usual rule (client/socket_path.hpp)
-  bool json = false;
-};
-
-// Adds --socket and --json to a daemon command.
-void add_daemon_options(CLI::App& cmd, DaemonArgs& args);
 
 // Connects (hello), runs `f` with the connection, maps every failure to a
 // message on stderr and a CommandFailed with the status above.

@@ -22,13 +22,6 @@ namespace fs = std::filesystem;
 using scene::Scene;
 using scene::SceneMesh;
 
-struct InspectArgs {
-  std::string file;
-  bool json = false;
-  bool formats = false;
-  std::string material = "rubber";
-  std::optional<double> weld_tolerance;
-};
 
 bool is_scene(const std::string& file) {
   return file.rfind("builtin:", 0) == 0 || fs::path(file).extension() == ".toml";
@@ -42,7 +35,7 @@ Scene scene_of_mesh(const InspectArgs& args) {
   s.materials = scene::material_presets();
   if (!s.materials.count(args.material)) {
     cli::error("inspect --material: no preset '" + args.material + "' (rubber, clay, jelly)");
-    throw CommandFailed{2};
+    throw CommandFailed{kExitUsage};
   }
   scene::ImportOptions options;
   if (args.weld_tolerance) options.weld_tolerance = *args.weld_tolerance;
@@ -123,21 +116,23 @@ nlohmann::json to_json(const Scene& s, const SceneMesh& m, const sim::SubstepCho
   };
 }
 
-void run(const InspectArgs& args) {
+}  // namespace
+
+void inspect(const InspectArgs& args) {
   if (args.formats) {
     for (const std::string& ext : scene::import_extensions()) fmt::print("{}\n", ext);
     return;
   }
   if (args.file.empty()) {
     cli::error("inspect: give a mesh or scene FILE (or builtin:default)");
-    throw CommandFailed{2};
+    throw CommandFailed{kExitUsage};
   }
   Scene s;
   try {
     s = is_scene(args.file) ? scene::load_scene(args.file) : scene_of_mesh(args);
   } catch (const std::exception& e) {  // LoadError / SceneError: already one line naming the file
     cli::error(e.what());
-    throw CommandFailed{1};
+    throw CommandFailed{kExitCommandFailed};
   }
   if (!args.json) {
     if (is_scene(args.file)) {
@@ -162,7 +157,7 @@ void run(const InspectArgs& args) {
       sub = sim::choose_substeps(m.loaded.mesh, s.material_of(m), s.settings);
     } catch (const std::invalid_argument& e) {
       cli::error(s.file.string() + ": mesh '" + m.name + "': " + e.what());
-      throw CommandFailed{1};
+      throw CommandFailed{kExitCommandFailed};
     }
     if (sub.substeps >= sim::kMaxSubsteps) {
       extra.push_back(fmt::format("material '{}' would need more than {} substeps per tick: it is too stiff or "
@@ -178,21 +173,6 @@ void run(const InspectArgs& args) {
       for (const std::string& w : extra) fmt::print("  warning: {}\n", w);
     }
   }
-}
-
-}  // namespace
-
-void add_inspect_command(CLI::App& app) {
-  auto args = std::make_shared<InspectArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "inspect", "Load a mesh or scene file as sculptd would and report counts, bounds, material and substeps");
-  cmd->add_option("file", args->file, "mesh file (obj, ply, stl, gltf, glb, off, ...), scene .toml, or builtin:default");
-  cmd->add_flag("--json", args->json, "one JSON object per mesh, one per line");
-  cmd->add_flag("--formats", args->formats, "list the mesh file extensions that can be read");
-  cmd->add_option("--material", args->material, "material preset for a lone mesh file (rubber, clay, jelly)");
-  cmd->add_option("--weld-tolerance", args->weld_tolerance,
-                  "weld distance as a fraction of the bounding-box diagonal (default 1e-5)");
-  cmd->callback([args] { run(*args); });
 }
 
 }  // namespace sculpt::ctl

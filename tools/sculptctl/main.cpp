@@ -1,24 +1,117 @@
-// sculptctl: the command-line companion of sculptd.
+// sculptctl: the command-line companion of sculptd. This file is its whole
+// command line: every command, its options, and what it runs (commands.hpp).
 #include <CLI/CLI.hpp>
 
 #include "cli/conventions.hpp"
 #include "commands.hpp"
 
+namespace sculpt::ctl {
+namespace {
+
+// --socket and --json, on every command that talks to a running sculptd.
+void add_daemon_options(CLI::App& cmd, DaemonArgs& args) {
+  cmd.add_option("--socket", args.socket,
+                 "sculptd's socket (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY/sculptd.sock, "
+                 "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)")
+      ->type_name("PATH");
+  cmd.add_flag("--json", args.json, "print JSON instead of text");
+}
+
+struct Args {
+  InspectArgs inspect;
+  RecordArgs record;
+  ReplayArgs replay;
+  DaemonArgs status, devices, reset, pause, resume;
+  SaveArgs save;
+  LoadArgs load;
+};
+
+void add_commands(CLI::App& app, Args& a) {
+  CLI::App* cmd = app.add_subcommand(
+      "inspect", "load a mesh or scene file as sculptd would and report counts, bounds, material and substeps");
+  cmd->add_option("FILE", a.inspect.file,
+                  "mesh file (obj, ply, stl, gltf, glb, off, ...), scene .toml, or builtin:default");
+  cmd->add_flag("--json", a.inspect.json, "one JSON object per mesh, one per line");
+  cmd->add_flag("--formats", a.inspect.formats, "list the mesh file extensions that can be read");
+  cmd->add_option("--material", a.inspect.material, "material preset for a lone mesh file (rubber, clay, jelly)");
+  cmd->add_option("--weld-tolerance", a.inspect.weld_tolerance,
+                  "weld distance as a fraction of the bounding-box diagonal (default 1e-5)");
+  cmd->callback([&a] { inspect(a.inspect); });
+
+  cmd = app.add_subcommand("record", "record the joysticks and gamepads into a session file");
+  cmd->add_option("FILE", a.record.file, "session file to write (JSON Lines, docs/session-format.md)")->required();
+  cmd->add_option("--duration", a.record.duration, "seconds to record (default: until Ctrl-C)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--wait-devices", a.record.wait_for, "wait until this many devices are present before starting");
+  cmd->add_option("--wait-timeout", a.record.wait_timeout, "seconds to wait for them (default 10)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--discovery", a.record.discovery, "auto, udev or inotify (default auto)")
+      ->check(CLI::IsMember({"auto", "udev", "inotify"}));
+  cmd->add_flag("--all", a.record.all, "record every input device, not only joysticks and gamepads");
+  cmd->add_flag("-v,--verbose", a.record.verbose, "log every device considered");
+  cmd->callback([&a] { record(a.record); });
+
+  cmd = app.add_subcommand(
+      "replay", "play a recorded session through uinput (virtual devices that answer FF; needs /dev/uinput)");
+  cmd->add_option("FILE", a.replay.file, "session file (docs/session-format.md)")->required();
+  cmd->add_option("--speed", a.replay.speed, "playback speed factor (default 1)")->check(CLI::PositiveNumber);
+  cmd->add_option("--settle", a.replay.settle,
+                  "seconds between creating the devices and the first frame, for clients to open them (default 1)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--hold", a.replay.hold, "seconds the devices stay after the last frame (default 0.5)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_flag("-q,--quiet", a.replay.quiet, "no summary line");
+  cmd->callback([&a] { replay(a.replay); });
+
+  cmd = app.add_subcommand("status", "the running daemon's stats (rate, jitter, stages, viewers, devices)");
+  add_daemon_options(*cmd, a.status);
+  cmd->callback([&a] { status(a.status); });
+
+  cmd = app.add_subcommand("devices", "the joysticks the running daemon knows (slot, node, force feedback, tools)");
+  add_daemon_options(*cmd, a.devices);
+  cmd->callback([&a] { devices(a.devices); });
+
+  cmd = app.add_subcommand("save", "export the running daemon's current meshes (.obj .ply .stl .glb)");
+  cmd->add_option("FILE", a.save.file, "where to write; the extension picks the format")->required();
+  cmd->add_option("--mesh", a.save.mesh, "only this mesh (by name)");
+  add_daemon_options(*cmd, a.save.daemon);
+  cmd->callback([&a] { save(a.save); });
+
+  cmd = app.add_subcommand("load", "load another scene into the running daemon (keeps the sculpt on failure)");
+  cmd->add_option("SCENE", a.load.scene, "scene file (TOML) or builtin:default")->required();
+  add_daemon_options(*cmd, a.load.daemon);
+  cmd->callback([&a] { load(a.load); });
+
+  struct Simple {
+    const char* name;
+    const char* help;
+    DaemonArgs& args;
+    Control what;
+  };
+  for (const Simple& s : {Simple{"reset", "every mesh back to its shape as loaded", a.reset, Control::reset},
+                          Simple{"pause", "stop simulating (the loop keeps its rate; viewers keep their stream)",
+                                 a.pause, Control::pause},
+                          Simple{"resume", "simulate again after pause", a.resume, Control::resume}}) {
+    cmd = app.add_subcommand(s.name, s.help);
+    add_daemon_options(*cmd, s.args);
+    cmd->callback([&args = s.args, what = s.what] { control(args, what); });
+  }
+}
+
+}  // namespace
+}  // namespace sculpt::ctl
+
 int main(int argc, char** argv) {
-  sculpt::cli::set_program("sculptctl");
+  using namespace sculpt;
+  cli::set_program("sculptctl");
   CLI::App app{"sculptctl: inspect scene and mesh files, talk to a running sculptd"};
-  sculpt::cli::apply_conventions(app);
+  cli::apply_conventions(app);
   app.require_subcommand(0, 1);  // no command: cli::parse names the commands
-  sculpt::ctl::add_inspect_command(app);
-  sculpt::ctl::add_record_command(app);
-  sculpt::ctl::add_replay_command(app);
-  sculpt::ctl::add_status_command(app);
-  sculpt::ctl::add_devices_command(app);
-  sculpt::ctl::add_save_command(app);
-  sculpt::ctl::add_control_commands(app);
+  ctl::Args args;
+  ctl::add_commands(app, args);
   try {
-    if (const auto status = sculpt::cli::parse(app, argc, argv)) return *status;
-  } catch (const sculpt::ctl::CommandFailed& failed) {
+    if (const auto status = cli::parse(app, argc, argv)) return *status;
+  } catch (const ctl::CommandFailed& failed) {
     return failed.status;
   }
   return 0;

@@ -24,15 +24,6 @@ namespace {
 std::atomic<bool> g_stop{false};
 void on_stop_signal(int) { g_stop.store(true); }
 
-struct RecordArgs {
-  std::string file;
-  double duration = 0;        // 0: until a signal
-  std::size_t wait_for = 0;   // start the clock once this many devices are there
-  double wait_timeout = 10;
-  bool all = false;
-  bool verbose = false;
-  std::string discovery = "auto";
-};
 
 // Collects frames in memory: the header (written first) lists every device
 // seen, and a device can appear mid-recording.
@@ -90,7 +81,9 @@ void poll_once(input::DeviceManager& manager, int timeout_ms) {
     if (p.revents) manager.dispatch(p.fd);
 }
 
-void run(const RecordArgs& args) {
+}  // namespace
+
+void record(const RecordArgs& args) {
   struct sigaction sa {};
   sa.sa_handler = on_stop_signal;
   ::sigaction(SIGINT, &sa, nullptr);
@@ -107,7 +100,7 @@ void run(const RecordArgs& args) {
     manager.start();
   } catch (const std::exception& e) {
     cli::error(fmt::format("record: cannot watch input devices: {}", e.what()));
-    throw CommandFailed{1};
+    throw CommandFailed{kExitCommandFailed};
   }
   using Clock = std::chrono::steady_clock;
   const auto wait_end = Clock::now() + std::chrono::duration<double>(args.wait_for ? args.wait_timeout : 0);
@@ -116,7 +109,7 @@ void run(const RecordArgs& args) {
     cli::error(fmt::format("record: {} joystick(s) found{}; nothing to record{}", manager.attached(),
                args.wait_for ? fmt::format(" within {} s, {} wanted", args.wait_timeout, args.wait_for) : "",
                args.all ? "" : " (--all records any input device)"));
-    throw CommandFailed{1};
+    throw CommandFailed{kExitCommandFailed};
   }
   recorder.start_clock();
   // Say so on stdout: a script driving the devices waits for this line.
@@ -135,28 +128,10 @@ void run(const RecordArgs& args) {
     input::write_session(args.file, session);
   } catch (const input::SessionError& e) {
     cli::error(fmt::format("record: {}", e.what()));
-    throw CommandFailed{1};
+    throw CommandFailed{kExitCommandFailed};
   }
   fmt::print("recorded {} frames from {} device(s), {:.2f} s\n", session.frames.size(), session.header.devices.size(),
              session.frames.empty() ? 0.0 : session.frames.back().t_us / 1e6);
-}
-
-}  // namespace
-
-void add_record_command(CLI::App& app) {
-  auto args = std::make_shared<RecordArgs>();
-  CLI::App* cmd = app.add_subcommand("record", "Record the joysticks and gamepads into a session file");
-  cmd->add_option("file", args->file, "session file to write (JSON Lines, docs/session-format.md)")->required();
-  cmd->add_option("--duration", args->duration, "seconds to record (default: until Ctrl-C)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--wait-devices", args->wait_for, "wait until this many devices are present before starting");
-  cmd->add_option("--wait-timeout", args->wait_timeout, "seconds to wait for them (default 10)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--discovery", args->discovery, "auto, udev or inotify (default auto)")
-      ->check(CLI::IsMember({"auto", "udev", "inotify"}));
-  cmd->add_flag("--all", args->all, "record every input device, not only joysticks and gamepads");
-  cmd->add_flag("-v,--verbose", args->verbose, "log every device considered");
-  cmd->callback([args] { run(*args); });
 }
 
 }  // namespace sculpt::ctl

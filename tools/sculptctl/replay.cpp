@@ -29,13 +29,6 @@ namespace {
 std::atomic<bool> g_stop{false};
 void on_stop_signal(int) { g_stop.store(true); }
 
-struct ReplayArgs {
-  std::string file;
-  double speed = 1.0;
-  double settle = 1.0;   // seconds between creating the devices and the first frame
-  double hold = 0.5;     // seconds the devices stay after the last frame
-  bool quiet = false;
-};
 
 uinput::DeviceSpec spec_of(const input::DeviceInfo& d) {
   uinput::DeviceSpec s;
@@ -80,7 +73,9 @@ bool sleep_until(const timespec& deadline) {
   }
 }
 
-void run(const ReplayArgs& args) {
+}  // namespace
+
+void replay(const ReplayArgs& args) {
   struct sigaction sa {};
   sa.sa_handler = on_stop_signal;  // no SA_RESTART: a signal ends the sleep
   ::sigaction(SIGINT, &sa, nullptr);
@@ -91,7 +86,7 @@ void run(const ReplayArgs& args) {
     reader = std::make_unique<input::SessionReader>(args.file);
   } catch (const input::SessionError& e) {
     cli::error(fmt::format("replay: {}", e.what()));
-    throw CommandFailed{2};
+    throw CommandFailed{kExitUsage};
   }
   std::vector<std::unique_ptr<uinput::VirtualDevice>> devices;
   try {
@@ -105,7 +100,7 @@ void run(const ReplayArgs& args) {
   } catch (const std::exception& e) {
     cli::error(fmt::format("replay: cannot create the virtual devices ({}){}", e.what(),
                errno == ENOENT || errno == EACCES ? "; replay needs write access to /dev/uinput" : ""));
-    throw CommandFailed{1};
+    throw CommandFailed{kExitCommandFailed};
   }
   for (std::size_t i = 0; i < devices.size(); ++i)
     fmt::print("device {}: {} '{}'\n", i, devices[i]->event_node(), devices[i]->spec().name);
@@ -142,7 +137,7 @@ void run(const ReplayArgs& args) {
     }
   } catch (const input::SessionError& e) {
     cli::error(fmt::format("replay: {}", e.what()));
-    throw CommandFailed{2};
+    throw CommandFailed{kExitUsage};
   }
   if (!g_stop) {
     timespec now{};
@@ -156,21 +151,5 @@ void run(const ReplayArgs& args) {
                g_stop ? " (stopped by a signal)" : "", uploads);
 }
 
-}  // namespace
-
-void add_replay_command(CLI::App& app) {
-  auto args = std::make_shared<ReplayArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "replay", "Play a recorded session through uinput (virtual devices that answer FF; needs /dev/uinput)");
-  cmd->add_option("file", args->file, "session file (docs/session-format.md)")->required();
-  cmd->add_option("--speed", args->speed, "playback speed factor (default 1)")->check(CLI::PositiveNumber);
-  cmd->add_option("--settle", args->settle,
-                  "seconds between creating the devices and the first frame, for clients to open them (default 1)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--hold", args->hold, "seconds the devices stay after the last frame (default 0.5)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_flag("-q,--quiet", args->quiet, "no summary line");
-  cmd->callback([args] { run(*args); });
-}
-
 }  // namespace sculpt::ctl
+

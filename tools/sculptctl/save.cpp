@@ -14,49 +14,40 @@
 
 namespace sculpt::ctl {
 
-void add_save_command(CLI::App& app) {
-  auto args = std::make_shared<DaemonArgs>();
-  auto file = std::make_shared<std::string>();
-  auto mesh = std::make_shared<std::string>();
-  auto* cmd = app.add_subcommand("save", "export the running daemon's current meshes (.obj .ply .stl .glb)");
-  cmd->add_option("FILE", *file, "where to write; the extension picks the format")->required();
-  cmd->add_option("--mesh", *mesh, "only this mesh (by name)");
-  add_daemon_options(*cmd, *args);
-  cmd->callback([args, file, mesh] {
-    sim::TriangleMesh out;
-    std::size_t meshes = 0;
-    with_daemon(*args, [&](client::Connection& c, kj::WaitScope& ws) {
-      auto reply = c.session().snapshotRequest().send().wait(ws);
-      for (const auto m : reply.getSnapshot().getMeshes()) {
-        if (!mesh->empty() && *mesh != m.getName().cStr()) continue;
-        const auto base = static_cast<std::uint32_t>(out.positions.size());
-        const auto pos = m.getPositions();
-        const std::size_t n = pos.size() / 12;
-        for (std::size_t i = 0; i < n; ++i) {
-          sim::Vec3f p;
-          std::memcpy(p.data(), pos.begin() + i * 12, 12);
-          out.positions.push_back(p);
-        }
-        const auto tris = m.getTriangles();
-        for (unsigned t = 0; t + 2 < tris.size(); t += 3)
-          out.triangles.push_back({base + tris[t], base + tris[t + 1], base + tris[t + 2]});
-        ++meshes;
+void save(const SaveArgs& args) {
+  sim::TriangleMesh out;
+  std::size_t meshes = 0;
+  with_daemon(args.daemon, [&](client::Connection& c, kj::WaitScope& ws) {
+    auto reply = c.session().snapshotRequest().send().wait(ws);
+    for (const auto m : reply.getSnapshot().getMeshes()) {
+      if (!args.mesh.empty() && args.mesh != m.getName().cStr()) continue;
+      const auto base = static_cast<std::uint32_t>(out.positions.size());
+      const auto pos = m.getPositions();
+      const std::size_t n = pos.size() / 12;
+      for (std::size_t i = 0; i < n; ++i) {
+        sim::Vec3f p;
+        std::memcpy(p.data(), pos.begin() + i * 12, 12);
+        out.positions.push_back(p);
       }
-    });
-    if (meshes == 0) fail(kExitCommandFailed, mesh->empty() ? "the daemon's scene has no meshes"
-                                                             : "the daemon's scene has no mesh named \"" + *mesh + "\"");
-    try {
-      scene::export_mesh(out, *file);
-    } catch (const std::exception& e) {
-      fail(kExitCommandFailed, e.what());
+      const auto tris = m.getTriangles();
+      for (unsigned t = 0; t + 2 < tris.size(); t += 3)
+        out.triangles.push_back({base + tris[t], base + tris[t + 1], base + tris[t + 2]});
+      ++meshes;
     }
-    if (args->json)
-      std::cout << nlohmann::json{{"file", *file}, {"meshes", meshes}, {"vertices", out.positions.size()},
-                                  {"triangles", out.triangles.size()}}.dump() << "\n";
-    else
-      fmt::print("saved {} mesh(es), {} vertices, {} triangles to {}\n", meshes, out.positions.size(),
-                 out.triangles.size(), *file);
   });
+  if (meshes == 0) fail(kExitCommandFailed, args.mesh.empty() ? "the daemon's scene has no meshes"
+                                                           : "the daemon's scene has no mesh named \"" + args.mesh + "\"");
+  try {
+    scene::export_mesh(out, args.file);
+  } catch (const std::exception& e) {
+    fail(kExitCommandFailed, e.what());
+  }
+  if (args.daemon.json)
+    std::cout << nlohmann::json{{"file", args.file}, {"meshes", meshes}, {"vertices", out.positions.size()},
+                                {"triangles", out.triangles.size()}}.dump() << "\n";
+  else
+    fmt::print("saved {} mesh(es), {} vertices, {} triangles to {}\n", meshes, out.positions.size(),
+               out.triangles.size(), args.file);
 }
 
 }  // namespace sculpt::ctl

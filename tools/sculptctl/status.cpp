@@ -48,55 +48,45 @@ const char* ff_name(proto::FfSupport ff) {
 
 }  // namespace
 
-void add_status_command(CLI::App& app) {
-  auto args = std::make_shared<DaemonArgs>();
-  auto* cmd = app.add_subcommand("status", "the running daemon's stats (rate, jitter, stages, viewers, devices)");
-  add_daemon_options(*cmd, *args);
-  cmd->callback([args] {
-    with_daemon(*args, [&](client::Connection& c, kj::WaitScope& ws) {
-      auto reply = c.session().statusRequest().send().wait(ws);
-      const auto st = reply.getStats();
-      if (args->json) std::cout << loop::stats_json(server::stats_from(st)).dump(2) << "\n";
-      else print_status(st, c.server(), c.socket_path());
-    });
+void status(const DaemonArgs& args) {
+  with_daemon(args, [&](client::Connection& c, kj::WaitScope& ws) {
+    auto reply = c.session().statusRequest().send().wait(ws);
+    const auto st = reply.getStats();
+    if (args.json) std::cout << loop::stats_json(server::stats_from(st)).dump(2) << "\n";
+    else print_status(st, c.server(), c.socket_path());
   });
 }
 
-void add_devices_command(CLI::App& app) {
-  auto args = std::make_shared<DaemonArgs>();
-  auto* cmd = app.add_subcommand("devices", "the joysticks the running daemon knows (slot, node, force feedback, tools)");
-  add_daemon_options(*cmd, *args);
-  cmd->callback([args] {
-    with_daemon(*args, [&](client::Connection& c, kj::WaitScope& ws) {
-      auto reply = c.session().devicesRequest().send().wait(ws);
-      const auto list = reply.getDevices();
-      if (args->json) {
-        auto out = nlohmann::json::array();
-        for (const auto d : list) {
-          auto tools = nlohmann::json::array();
-          for (const auto t : d.getTools()) tools.push_back(t);
-          out.push_back({{"slot", d.getSlot()}, {"name", d.getName().cStr()}, {"node", d.getNode().cStr()},
-                         {"vendor", fmt::format("{:04x}", d.getVendor())},
-                         {"product", fmt::format("{:04x}", d.getProduct())}, {"kind", d.getKind().cStr()},
-                         {"connected", d.getConnected()}, {"ff", ff_name(d.getFf())},
-                         {"ff_uploads", d.getFfUploads()}, {"tools", tools}});
-        }
-        std::cout << out.dump(2) << "\n";
-        return;
-      }
-      if (list.size() == 0) {
-        fmt::print("no devices\n");
-        return;
-      }
+void devices(const DaemonArgs& args) {
+  with_daemon(args, [&](client::Connection& c, kj::WaitScope& ws) {
+    auto reply = c.session().devicesRequest().send().wait(ws);
+    const auto list = reply.getDevices();
+    if (args.json) {
+      auto out = nlohmann::json::array();
       for (const auto d : list) {
-        std::string tools;
-        for (const auto t : d.getTools()) tools += (tools.empty() ? "" : ",") + std::to_string(t);
-        fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} ff {:<8} {:>6} uploads  tools {}  {}\n", d.getSlot(),
-                   d.getConnected() ? (d.getNode().size() ? d.getNode().cStr() : "(recorded)") : "(unplugged)",
-                   d.getVendor(), d.getProduct(), d.getKind().cStr(), ff_name(d.getFf()), d.getFfUploads(),
-                   tools.empty() ? "-" : tools, d.getName().cStr());
+        auto tools = nlohmann::json::array();
+        for (const auto t : d.getTools()) tools.push_back(t);
+        out.push_back({{"slot", d.getSlot()}, {"name", d.getName().cStr()}, {"node", d.getNode().cStr()},
+                       {"vendor", fmt::format("{:04x}", d.getVendor())},
+                       {"product", fmt::format("{:04x}", d.getProduct())}, {"kind", d.getKind().cStr()},
+                       {"connected", d.getConnected()}, {"ff", ff_name(d.getFf())},
+                       {"ff_uploads", d.getFfUploads()}, {"tools", tools}});
       }
-    });
+      std::cout << out.dump(2) << "\n";
+      return;
+    }
+    if (list.size() == 0) {
+      fmt::print("no devices\n");
+      return;
+    }
+    for (const auto d : list) {
+      std::string tools;
+      for (const auto t : d.getTools()) tools += (tools.empty() ? "" : ",") + std::to_string(t);
+      fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} ff {:<8} {:>6} uploads  tools {}  {}\n", d.getSlot(),
+                 d.getConnected() ? (d.getNode().size() ? d.getNode().cStr() : "(recorded)") : "(unplugged)",
+                 d.getVendor(), d.getProduct(), d.getKind().cStr(), ff_name(d.getFf()), d.getFfUploads(),
+                 tools.empty() ? "-" : tools, d.getName().cStr());
+    }
   });
 }
 
