@@ -10,6 +10,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "files/regular_file.hpp"
+
 namespace sculpt::input {
 namespace {
 
@@ -24,10 +26,18 @@ std::string code_name(std::uint16_t type, std::uint16_t code) {
   throw SessionError(fmt::format("{}: {}", where, what));
 }
 
+// An integer JSON value as int64: nlohmann reads 18446744073709551615 as an
+// unsigned number, which get<int64_t>() would turn into -1; such values are
+// out of every range here, so they become INT64_MAX (and fail the check).
+std::int64_t int_value(const json& j) {
+  if (j.is_number_unsigned() && j.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX)) return INT64_MAX;
+  return j.get<std::int64_t>();
+}
+
 // A code given by name ("ABS_X") or number.
 std::uint16_t parse_code(const json& j, std::uint16_t type, const std::string& where, const std::string& field) {
   if (j.is_number_integer()) {
-    const auto v = j.get<std::int64_t>();
+    const auto v = int_value(j);
     if (v < 0 || v > 0x2ff) fail(where, fmt::format("{}: code {} out of range", field, v));
     return static_cast<std::uint16_t>(v);
   }
@@ -49,7 +59,7 @@ T get_int(const json& obj, const char* key, const std::string& where, const std:
     return fallback;
   }
   if (!it->is_number_integer()) fail(where, fmt::format("{}: field '{}' must be an integer", ctx, key));
-  const auto v = it->get<std::int64_t>();
+  const auto v = int_value(*it);
   if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
       v > static_cast<std::int64_t>(std::numeric_limits<T>::max()))
     fail(where, fmt::format("{}: field '{}' = {} is out of range", ctx, key, v));
@@ -245,11 +255,11 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
   if (!j.is_array() || j.size() != 3)
     fail(where, "a frame must be [t_us, device, [[type, code, value], ...]]");
   SessionFrame f;
-  if (!j[0].is_number_integer() || j[0].get<std::int64_t>() < 0)
-    fail(where, "t_us must be a non-negative integer (microseconds)");
-  f.t_us = j[0].get<std::int64_t>();
+  if (!j[0].is_number_integer() || int_value(j[0]) < 0 || int_value(j[0]) == INT64_MAX)
+    fail(where, "t_us must be a non-negative integer (microseconds) below 2^63 - 1");
+  f.t_us = int_value(j[0]);
   if (!j[1].is_number_integer()) fail(where, "device must be an integer index into the header's devices");
-  const auto dev = j[1].get<std::int64_t>();
+  const auto dev = int_value(j[1]);
   if (dev < 0 || static_cast<std::size_t>(dev) >= devices)
     fail(where, fmt::format("device {} does not exist (the header lists {})", dev, devices));
   f.device = static_cast<std::uint32_t>(dev);
@@ -259,7 +269,7 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
     if (!e.is_array() || e.size() != 3 || !e[0].is_number_integer() || !e[1].is_number_integer() ||
         !e[2].is_number_integer())
       fail(where, fmt::format("event {} must be [type, code, value] integers", i));
-    const auto type = e[0].get<std::int64_t>(), code = e[1].get<std::int64_t>(), value = e[2].get<std::int64_t>();
+    const auto type = int_value(e[0]), code = int_value(e[1]), value = int_value(e[2]);
     if (type < 0 || type > EV_MAX) fail(where, fmt::format("event {}: type {} out of range", i, type));
     if (code < 0 || code > 0x2ff) fail(where, fmt::format("event {}: code {} out of range", i, code));
     if (value < INT32_MIN || value > INT32_MAX) fail(where, fmt::format("event {}: value {} out of range", i, value));
@@ -303,17 +313,38 @@ void SessionWriter::close() {
   out_.close();
 }
 
-SessionReader::SessionReader(const std::filesystem::path& file) : file_(file), in_(file) {
+SessionReader::SessionReader(const std::filesystem::path& file) : file_(file) {
+  // A FIFO or a device would block or never end: regular files only.
+  try {
+    files::check_regular(file, kMaxSessionBytes);
+  } catch (const files::FileError& e) {
+    throw SessionError(fmt::format("{}: {}", file.string(), e.reason()));
+  }
+  in_.open(file, std::ios::binary);
   if (!in_) throw SessionError(fmt::format("{}: cannot open the session file", file.string()));
   std::string line;
-  if (!std::getline(in_, line)) throw SessionError(fmt::format("{}:1: empty file, expected a session header", file.string()));
+  if (!read_line(line)) throw SessionError(fmt::format("{}:1: empty file, expected a session header", file.string()));
   line_ = 1;
   header_ = header_from_json(line, fmt::format("{}:1", file.string()));
 }
 
+bool SessionReader::read_line(std::string& line) {
+  line.clear();
+  std::streambuf* buf = in_.rdbuf();
+  for (;;) {
+    const int c = buf->sbumpc();
+    if (c == std::char_traits<char>::eof()) return !line.empty();
+    if (c == '\n') return true;
+    if (line.size() == kMaxLineBytes)
+      throw SessionError(fmt::format("{}:{}: the line is longer than {} bytes: not a session line", file_.string(),
+                                     line_ + 1, kMaxLineBytes));
+    line.push_back(static_cast<char>(c));
+  }
+}
+
 std::optional<SessionFrame> SessionReader::next() {
   std::string line;
-  while (std::getline(in_, line)) {
+  while (read_line(line)) {
     ++line_;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;  // blank lines are allowed
     // The "file:line" is formatted only for a line the fast path does not take.
@@ -336,6 +367,12 @@ Session read_session(const std::filesystem::path& file) {
   s.header = r.header();
   while (auto f = r.next()) s.frames.push_back(std::move(*f));
   return s;
+}
+
+void check_session(const std::filesystem::path& file) {
+  SessionReader r(file);
+  while (r.next()) {
+  }
 }
 
 void write_session(const std::filesystem::path& file, const Session& session) {

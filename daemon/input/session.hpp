@@ -59,6 +59,11 @@ class SessionWriter {
 
 class SessionReader {
  public:
+  // Regular files only (a FIFO would block the reader), of at most this many
+  // bytes, in lines of at most kMaxLineBytes.
+  static constexpr std::uint64_t kMaxSessionBytes = std::uint64_t{4} << 30;
+  static constexpr std::size_t kMaxLineBytes = 1 << 20;
+
   // Reads and checks the header. Errors name file:line and what is wrong.
   explicit SessionReader(const std::filesystem::path& file);
   const SessionHeader& header() const { return header_; }
@@ -67,6 +72,8 @@ class SessionReader {
   const std::filesystem::path& file() const { return file_; }
 
  private:
+  bool read_line(std::string& line);  // false at the end
+
   std::filesystem::path file_;
   std::ifstream in_;
   SessionHeader header_;
@@ -80,6 +87,9 @@ struct Session {
   std::vector<SessionFrame> frames;
 };
 Session read_session(const std::filesystem::path& file);
+// Reads every line (one at a time: bounded memory) and throws SessionError at
+// the first bad one: a replay checks its whole file before its first tick.
+void check_session(const std::filesystem::path& file);
 void write_session(const std::filesystem::path& file, const Session& session);
 
 // Text forms, exposed for tests and tools.

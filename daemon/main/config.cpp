@@ -1,14 +1,17 @@
 #include "main/config.hpp"
 
 #include <cmath>
-#include <fstream>
 #include <set>
-#include <sstream>
 
 #include <fmt/format.h>
 
+#include "files/regular_file.hpp"
+
 namespace sculpt::daemon {
 namespace {
+
+// A config file is a few lines; anything this big is something else.
+constexpr std::uint64_t kMaxConfigBytes = std::uint64_t{1} << 20;
 
 using Path = std::filesystem::path;
 
@@ -204,15 +207,15 @@ DaemonConfig parse_config(std::string_view text, const std::filesystem::path& fi
 }
 
 DaemonConfig load_config(const std::filesystem::path& file, bool optional) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) {
-    std::error_code ec;
-    if (optional && !std::filesystem::exists(file, ec)) return DaemonConfig{};
-    throw ConfigError(fmt::format("{}: cannot read the config file", file.string()));
+  std::error_code ec;
+  if (optional && !std::filesystem::exists(file, ec) && !std::filesystem::is_symlink(file, ec)) return DaemonConfig{};
+  // The one special file a config may be: /dev/null, the usual "no config".
+  if (file == "/dev/null") return parse_config("", file);
+  try {
+    return parse_config(files::read_regular(file, kMaxConfigBytes), file);
+  } catch (const files::FileError& e) {
+    throw ConfigError(fmt::format("{}: cannot read the config file: {}", file.string(), e.reason()));
   }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse_config(ss.str(), file);
 }
 
 }  // namespace sculpt::daemon

@@ -5,50 +5,101 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <string>
+#include <system_error>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "scene/errors.hpp"
 
 namespace sculpt::scene {
 namespace fs = std::filesystem;
+namespace {
 
-void write_file_atomically(const fs::path& file, std::string_view bytes) {
-  const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
-  if (file.filename().empty()) throw ExportError(file, "no file name");
-  std::string tmpl = (dir / ("." + file.filename().string() + ".tmp-XXXXXX")).string();
-  std::vector<char> name(tmpl.begin(), tmpl.end());
-  name.push_back('\0');
+// Temp files left by an earlier writer of this file that was killed before
+// O_TMPFILE was used, or between link and rename: named, and older than
+// any write in progress.
+void remove_stale_temps(const fs::path& dir, const std::string& prefix) {
+  std::error_code ec;
+  const auto now = fs::file_time_type::clock::now();
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    std::error_code mec;
+    const auto mtime = fs::last_write_time(it->path(), mec);
+    if (!mec && now - mtime > std::chrono::minutes(1)) fs::remove(it->path(), mec);
+  }
+}
 
-  auto fail = [&](const std::string& step, int err, bool remove_temp) {
-    if (remove_temp) ::unlink(name.data());
-    throw ExportError(file, step + ": " + std::strerror(err));
-  };
-
-  const int fd = ::mkostemp(name.data(), O_CLOEXEC);
-  if (fd < 0) fail("cannot create a file in " + dir.string(), errno, false);
-  ::fchmod(fd, 0644);  // mkstemp makes 0600; an exported mesh is meant to be shared
+bool write_all(int fd, std::string_view bytes) {
   const char* p = bytes.data();
   std::size_t left = bytes.size();
   while (left) {
     const ssize_t n = ::write(fd, p, left);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
-      const int err = n < 0 ? errno : EIO;
-      ::close(fd);
-      fail("write failed", err, true);
+      if (n == 0) errno = EIO;
+      return false;
     }
     p += n;
     left -= static_cast<std::size_t>(n);
   }
-  if (::fsync(fd) != 0) {
+  return true;
+}
+
+}  // namespace
+
+void write_file_atomically(const fs::path& file, std::string_view bytes) {
+  const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  if (file.filename().empty()) throw ExportError(file, "no file name");
+  const std::string prefix = "." + file.filename().string() + ".tmp-";
+  remove_stale_temps(dir, prefix);
+  // An unnamed file (O_TMPFILE): a writer killed while writing leaves
+  // nothing behind. It gets a name only for the moment between link and
+  // rename. File systems without O_TMPFILE get a named temp file.
+  std::string name;
+  int fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
+  const bool unnamed = fd >= 0;
+  if (!unnamed) {
+    std::string tmpl = (dir / (prefix + "XXXXXX")).string();
+    fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
+    if (fd < 0) throw ExportError(file, "cannot create a file in " + dir.string() + ": " + std::strerror(errno));
+    name = tmpl;
+  }
+  auto fail = [&](const std::string& step) {
     const int err = errno;
     ::close(fd);
-    fail("fsync failed", err, true);
+    if (!name.empty()) ::unlink(name.c_str());
+    throw ExportError(file, step + ": " + std::strerror(err));
+  };
+  ::fchmod(fd, 0644);  // whatever the umask: an exported mesh is meant to be shared
+  if (!write_all(fd, bytes)) fail("write failed");
+  if (::fsync(fd) != 0) fail("fsync failed");
+  if (unnamed) {
+    // linkat through /proc needs no privilege (AT_EMPTY_PATH would).
+    for (int attempt = 0;; ++attempt) {
+      name = (dir / fmt::format("{}{}-{}", prefix, ::getpid(), attempt)).string();
+      if (::linkat(AT_FDCWD, fmt::format("/proc/self/fd/{}", fd).c_str(), AT_FDCWD, name.c_str(), AT_SYMLINK_FOLLOW) == 0)
+        break;
+      if (errno != EEXIST || attempt > 100) {
+        name.clear();
+        fail("cannot give the new file a name in " + dir.string());
+      }
+    }
   }
-  if (::close(fd) != 0) fail("close failed", errno, true);
-  if (::rename(name.data(), file.c_str()) != 0) fail("cannot replace the file", errno, true);
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(name.c_str());
+    throw ExportError(file, std::string("close failed: ") + std::strerror(err));
+  }
+  if (::rename(name.c_str(), file.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(name.c_str());
+    throw ExportError(file, std::string("cannot replace the file: ") + std::strerror(err));
+  }
   const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd >= 0) {  // the data is in place; a failing directory fsync is not worth failing the export
     ::fsync(dfd);

@@ -3,12 +3,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <fstream>
 #include <system_error>
 #include <variant>
 
 #include <fmt/format.h>
 
+#include "files/regular_file.hpp"
 #include "scene/assimp_reader.hpp"
 #include "scene/isolation.hpp"
 #include "scene/raw_blob.hpp"
@@ -18,6 +18,10 @@
 namespace sculpt::scene {
 namespace fs = std::filesystem;
 namespace {
+
+// Bigger than any mesh the simulation can hold at its rate (a 2M-triangle
+// binary STL is 100 MB).
+constexpr std::uint64_t kMaxMeshBytes = std::uint64_t{1} << 30;
 
 // assimp messages sometimes span lines; ours are one line.
 std::string one_line(std::string s) {
@@ -144,10 +148,12 @@ LoadedMesh load_mesh(const fs::path& file, const ImportOptions& options) {
                                       "fbx, dae, 3ds and more; `sculptctl inspect --formats` lists all)",
                                       ext.empty() ? std::string("no extension") : "." + ext));
   }
-  if (std::ifstream probe(file, std::ios::binary); !probe) {
-    throw LoadError(file, "cannot open for reading");
-  } else if (probe.peek() == std::ifstream::traits_type::eof()) {
-    throw LoadError(file, "the file is empty");
+  // A FIFO or a device would block or never end in the importer: regular
+  // files only (the importer opens it again itself, in its child).
+  try {
+    if (files::check_regular(file, kMaxMeshBytes) == 0) throw LoadError(file, "the file is empty");
+  } catch (const files::FileError& e) {
+    throw LoadError(file, e.reason());
   }
   return finish_import(import_raw(file, options, [&] { return read_with_assimp(file); }), file, options);
 }

@@ -15,6 +15,8 @@
 #include <system_error>
 #include <utility>
 
+#include "files/regular_file.hpp"
+
 namespace sculpt::server {
 namespace {
 
@@ -55,9 +57,12 @@ ListenSocket ListenSocket::open(const std::string& path) {
   const sockaddr_un addr = address(path);
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   if (!dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    if (ec) throw std::runtime_error("socket " + path + ": cannot create " + dir.string() + ": " + ec.message());
+    // 0750 whatever the umask: the group that may connect may look in.
+    try {
+      files::create_directories(dir, 0750);
+    } catch (const files::FileError& e) {
+      throw std::runtime_error("socket " + path + ": " + e.what());
+    }
   }
   struct stat st {};
   if (::lstat(path.c_str(), &st) == 0) {
