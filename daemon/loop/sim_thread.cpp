@@ -39,7 +39,10 @@ timespec to_timespec(std::int64_t ns) {
   return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
 }
 
-void store(std::atomic<std::uint64_t>& a, std::uint64_t v) { a.store(v, std::memory_order_relaxed); }
+template <class T, class V>
+void store(std::atomic<T>& a, V v) {
+  a.store(static_cast<T>(v), std::memory_order_relaxed);
+}
 
 }  // namespace
 
@@ -168,6 +171,8 @@ void SimThread::run() {
 
     const sim::TickStats& ws = world_.stats();
     store(stats_.vertices_awake, ws.awake_vertices);
+    store(stats_.last_blowup_body, ws.last_blowup_body);
+    store(stats_.last_blowup_cause, static_cast<std::uint8_t>(ws.last_blowup_cause));
     store(stats_.blowups, ws.blowups_total);
     store(stats_.contacts, ws.contacts);
     stats_.last_tick_ns.store(t3, std::memory_order_relaxed);

@@ -42,6 +42,8 @@ struct LoopStats {
   std::atomic<std::uint64_t> vertices_total{0};
   std::atomic<std::uint64_t> vertices_awake{0};
   std::atomic<std::uint64_t> blowups{0};
+  std::atomic<std::uint32_t> last_blowup_body{0};  // with the cause, of the latest blow-up
+  std::atomic<std::uint8_t> last_blowup_cause{0};  // sim::BlowupCause
   std::atomic<std::uint64_t> contacts{0};         // this tick, all tools
   std::atomic<std::int64_t> last_tick_ns{0};      // CLOCK_MONOTONIC of the last completed tick
   LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns

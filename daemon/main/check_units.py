@@ -8,9 +8,13 @@
 - the same on a copy with a misspelt key, which must be flagged (the check
   itself works);
 - `systemd-analyze security --offline=yes`: the exposure stays "OK" (< 2.0);
-- `systemd-sysusers --dry-run` accepts the sysusers.d file.
+- `systemd-sysusers --dry-run` accepts the sysusers.d file;
+- `systemd-analyze verify --man=yes` finds the man page the units name
+  (Documentation=man:sculptd(8)) among the project's (MANPATH=--man-dir),
+  and every page there renders without a warning (`man --warnings`).
 """
 import argparse
+import os
 import pathlib
 import re
 import shutil
@@ -34,6 +38,7 @@ def main():
     ap.add_argument("--socket", required=True)
     ap.add_argument("--sysusers", required=True)
     ap.add_argument("--sculptd", required=True)
+    ap.add_argument("--man-dir", required=True, help="the project's man pages (man1/, man8/)")
     ap.add_argument("--max-exposure", type=float, default=2.0)
     a = ap.parse_args()
     if not shutil.which("systemd-analyze"):
@@ -68,6 +73,25 @@ def main():
             print(f"systemd-analyze security --offline=yes: exposure {exposure}")
             if exposure >= a.max_exposure:
                 failures.append(f"exposure {exposure} >= {a.max_exposure}")
+
+        man_dir = pathlib.Path(a.man_dir).resolve()
+        env = dict(os.environ, MANPATH=str(man_dir), LC_ALL="C.UTF-8")
+        r = subprocess.run(["systemd-analyze", "verify", "--man=yes", "sculptd.service", "sculptd.socket"], cwd=d,
+                           capture_output=True, text=True, timeout=60, env=env)
+        out = (r.stdout + r.stderr).strip()
+        print("systemd-analyze verify --man=yes:", out or "no warnings")
+        if r.returncode != 0 or out:
+            failures.append("the units' Documentation= names a man page that is not shipped (or verify complained)")
+        pages = sorted(man_dir.glob("man*/*.[0-9]"))
+        if not pages:
+            failures.append(f"no man pages in {man_dir}")
+        for page in pages:
+            r = subprocess.run(["man", "--warnings", "-E", "UTF-8", "-l", str(page)], capture_output=True, text=True,
+                               timeout=60, env=dict(env, MANWIDTH="80"))
+            if r.returncode != 0 or r.stderr.strip():
+                failures.append(f"{page.name} does not render cleanly: {r.stderr.strip()}")
+            else:
+                print(f"{page.name}: renders cleanly, {len(r.stdout.splitlines())} lines")
 
         root = d / "root"
         root.mkdir()

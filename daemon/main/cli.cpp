@@ -9,8 +9,10 @@ namespace {
 
 // CLI11 2.1 binds plain values; these keep "was it given" next to the value.
 template <class T>
-void optional_option(CLI::App& app, const std::string& name, std::optional<T>& out, const std::string& help) {
-  app.add_option_function<T>(name, [&out](const T& value) { out = value; }, help);
+void optional_option(CLI::App& app, const std::string& name, std::optional<T>& out, const std::string& help,
+                     const std::string& value_name = {}) {
+  auto* opt = app.add_option_function<T>(name, [&out](const T& value) { out = value; }, help);
+  if (!value_name.empty()) opt->type_name(value_name);
 }
 
 }  // namespace
@@ -20,20 +22,20 @@ void add_options(CLI::App& app, CliOptions& o) {
          "-c,--config", [&o](const std::string& p) { o.config = p; o.config_given = true; },
          "config file (TOML; default /etc/sculptd/sculptd.conf, which may be absent)")
       ->type_name("PATH");
-  optional_option(app, "--scene", o.scene, "scene file (TOML), or builtin:default (the default)");
+  optional_option(app, "--scene", o.scene, "scene file (TOML), or builtin:default (the default)", "SCENE");
   optional_option(app, "--socket", o.socket, "control/streaming socket path (default: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY/sculptd.sock, "
-                  "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)");
-  optional_option(app, "--rate", o.rate_hz, "simulation rate in Hz (default: the scene's, 1000)");
-  optional_option(app, "--input", o.input, "auto | evdev | replay:FILE (default auto)");
+                  "$XDG_RUNTIME_DIR/sculptd/sculptd.sock, /run/sculptd/sculptd.sock)", "PATH");
+  optional_option(app, "--rate", o.rate_hz, "simulation rate in Hz (default: the scene's, 1000)", "HZ");
+  optional_option(app, "--input", o.input, "auto | evdev | replay:FILE (default auto)", "INPUT");
   optional_option(app, "--input-clock", o.input_clock,
-                  "arrival | device: schedule live input by arrival or by the device's MSC_TIMESTAMP");
-  optional_option(app, "--input-delay", o.input_delay_ms, "ms added to device time with --input-clock device (50)");
-  optional_option(app, "--duration", o.duration_s, "exit cleanly after this many seconds of simulation");
+                  "arrival | device: schedule live input by arrival or by the device's MSC_TIMESTAMP", "CLOCK");
+  optional_option(app, "--input-delay", o.input_delay_ms, "ms added to device time with --input-clock device (50)", "MS");
+  optional_option(app, "--duration", o.duration_s, "exit cleanly after this many seconds of simulation", "SECONDS");
   app.add_flag("--realtime", o.realtime, "SCHED_FIFO + mlockall for the sim thread, when permitted");
-  optional_option(app, "--stats-json", o.stats_json, "write the stats as JSON to FILE at exit");
-  optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit");
-  optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)");
-  app.add_flag("--check", o.check, "check the config and the scene, then exit");
+  optional_option(app, "--stats-json", o.stats_json, "write the stats as JSON to FILE at exit", "FILE");
+  optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit", "FILE");
+  optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)", "LEVEL");
+  app.add_flag("--check", o.check, "check the config and the scene (and probe its stability), then exit");
 }
 
 std::optional<int> parse_command_line(int argc, char** argv, CliOptions& out) {

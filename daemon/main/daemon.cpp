@@ -37,7 +37,10 @@
 #include "loop/tool_driver.hpp"
 #include "main/log.hpp"
 #include "main/notify.hpp"
+#include "main/blowup_log.hpp"
 #include "main/pipeline.hpp"
+#include "main/simulation.hpp"
+#include "main/worker.hpp"
 #include "client/socket_path.hpp"
 #include "scene/scene.hpp"
 #include "server/listener.hpp"
@@ -87,53 +90,6 @@ void write_file(const std::string& path, const std::string& text, const char* wh
   out.close();
   if (!out) throw std::runtime_error(std::string(what) + ": cannot write " + path);
 }
-
-// What streaming clients need to know about a scene that never changes while it is loaded.
-server::SceneInfo scene_info(const scene::Scene& s, double rate_hz) {
-  server::SceneInfo info;
-  info.scene = s.file.string();
-  info.rate_hz = rate_hz;
-  for (const auto& m : s.meshes) {
-    server::MeshInfo mi;
-    mi.name = m.name;
-    const auto& mesh = m.loaded.mesh;
-    mi.triangles.reserve(mesh.triangles.size() * 3);
-    for (const auto& t : mesh.triangles) mi.triangles.insert(mi.triangles.end(), t.begin(), t.end());
-    mi.rest.reserve(mesh.positions.size() * 3);
-    for (const auto& p : mesh.positions) mi.rest.insert(mi.rest.end(), p.begin(), p.end());
-    const sim::Material& mat = s.material_of(m);
-    mi.material = m.material;
-    mi.linear_model = mat.model != sim::ForceModel::spring;
-    mi.mass = static_cast<float>(mat.mass);
-    mi.stiffness = static_cast<float>(mat.stiffness);
-    mi.damping = static_cast<float>(mat.damping);
-    mi.anchor = static_cast<float>(mat.anchor);
-    mi.plastic = mat.plastic;
-    mi.yield_strain = static_cast<float>(mat.yield_strain);
-    mi.gravity = mat.gravity;
-    info.meshes.push_back(std::move(mi));
-  }
-  for (const auto& t : s.tools) {
-    server::ToolInfo ti;
-    ti.capsule = t.shape == scene::ToolShape::capsule;
-    ti.radius = static_cast<float>(t.radius);
-    ti.half_length = static_cast<float>(t.half_length);
-    ti.device_slot = -1;
-    info.tools.push_back(ti);
-  }
-  return info;
-}
-
-// One scene's simulation, built before anything running is touched: a
-// scene swap replaces all of it at once (with a PublishedState made by
-// install(), which needs the tick the old simulation stopped at).
-struct SimParts {
-  scene::Scene scene;
-  double rate = 0;
-  std::size_t tools = 0;
-  std::unique_ptr<sim::World<float>> world;
-  std::unique_ptr<SculptStages> stages;
-};
 
 class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::Control {
  public:
@@ -199,7 +155,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     request_stop(1);
   }
 
-  std::uint64_t current_tick() const { return sim_ ? sim_->ticks() : 0; }
+  std::uint64_t current_tick() const { return sim_ ? sim_->ticks() : pending_start_tick_; }
+  // The running sim thread's stats (zeros in the moment a swap's new thread
+  // could not start yet).
+  const loop::LoopStats& loop_stats() const { return sim_ ? sim_->stats() : idle_stats_; }
 
   // --input-clock device: the frame applies at its device time plus a fixed
   // delay, counted from the device's first frame, not when it arrived: a
@@ -233,12 +192,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
   void setup() {
     log::set_level(cfg_.log_level);
-    // Scene, world, tools.
-    scene_ = scene::load_scene(cfg_.scene);
-    for (const auto& w : scene_.warnings) log::warning("scene {}: {}", scene_.file.string(), w);
-    for (const auto& m : scene_.meshes)
-      for (const auto& w : m.loaded.warnings) log::warning("scene {}: mesh {}: {}", scene_.file.string(), m.name, w);
-    install(build_sim(std::move(scene_)), 0);
+    // Scene, world, tools. Before the io loop runs (and before READY), so
+    // here, once, the scene loads on the io thread.
+    board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
+    scene::Scene first = scene::load_scene(cfg_.scene);
+    log_scene_warnings(first);
+    install(build_simulation(std::move(first), simulation_settings(), *board_), 0);
+    blowups_.reset(mesh_names());
     log::info("scene {}: {} meshes, {} vertices, {} tools; {} Hz", scene_.file.string(), scene_.meshes.size(),
               vertices_of(scene_), tools_, rate_);
 
@@ -250,6 +210,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
 
     // Input.
     if (cfg_.input.kind == InputSpec::Kind::replay) {
+      // Every line checked before the first tick (one at a time: bounded
+      // memory), so a bad line deep in the file is named now, not mid-run.
+      input::check_session(cfg_.input.replay);
       replay_ = std::make_unique<input::ReplaySource>(
           cfg_.input.replay, rate_,
           [this](std::uint8_t slot, const input::DeviceInfo& info) { return bind_recorded(slot, info); });
@@ -279,7 +242,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       log::write(static_cast<log::Level>(std::clamp(priority, 3, 7)), line);
     };
     server_ = std::make_unique<server::Server>(io_, *this, sopts);
-    server_->set_scene(scene_info(scene_, rate_), *published_);
+    server_->set_scene(scene_info_, *published_);
     tell_server_devices();
     listen_ = std::make_unique<server::ListenSocket>(server::ListenSocket::open(client::resolve_socket_path(cfg_.socket)));
     socket_path_ = listen_->path();
@@ -307,7 +270,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   // housekeeping after the sim thread's first wake. One that never ticks
   // fails the start through systemd's TimeoutStartSec.
   void announce_ready_once() {
-    if (ready_sent_ || sim_->stats().heartbeats.load(std::memory_order_acquire) == 0) return;
+    if (ready_sent_ || loop_stats().heartbeats.load(std::memory_order_acquire) == 0) return;
     ready_sent_ = true;
     notify::ready(status_line());
     log::notice("sculptd ready: {} Hz, input {}, socket {}{}", rate_, to_string(cfg_.input), socket_path_,
@@ -323,48 +286,46 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     return b;
   }
 
+  std::vector<std::string> mesh_names() const {
+    std::vector<std::string> names;
+    for (const auto& m : scene_.meshes) names.push_back(m.name);
+    return names;
+  }
+
   static std::size_t vertices_of(const scene::Scene& s) {
     std::size_t n = 0;
     for (const auto& m : s.meshes) n += m.loaded.mesh.positions.size();
     return n;
   }
 
-  // Builds a scene's world and stages (allocates; throws naming what is
-  // wrong). Nothing running is touched.
-  SimParts build_sim(scene::Scene scene) {
-    SimParts p;
-    p.rate = cfg_.rate_hz.value_or(scene.settings.rate_hz);
-    sim::SimSettings settings = scene.settings;
-    settings.rate_hz = p.rate;
-    p.tools = scene.tools.size();
-    if (p.tools > input::kMaxTools)
-      throw std::runtime_error(fmt::format("scene {}: {} tools, at most {} can be driven", scene.file.string(),
-                                           p.tools, input::kMaxTools));
-    const int slots = static_cast<int>(std::max<std::size_t>(p.tools, 1));
-    p.world = std::make_unique<sim::World<float>>(settings, slots);
-    for (const auto& m : scene.meshes) p.world->add_body(m.loaded.mesh, scene.material_of(m));
-    const auto specs = loop::tool_specs(scene);
-    loop::DriverLimits limits;
-    limits.bounds = loop::tool_bounds(loop::mesh_bounds(scene), specs, cfg_.tool_margin);
-    limits.size_step = cfg_.size_step;
-    limits.min_scale = cfg_.min_scale;
-    limits.max_scale = cfg_.max_scale;
-    if (!board_) board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
-    const std::size_t ring = cfg_.input.kind == InputSpec::Kind::replay ? kReplayRingCapacity : kRingCapacity;
-    p.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, p.rate), *board_, ring);
-    p.scene = std::move(scene);
-    return p;
+  // The configuration a build of a scene reads, copied for the worker thread.
+  SimulationSettings simulation_settings() const {
+    SimulationSettings b;
+    b.rate_hz = cfg_.rate_hz;
+    b.tool_margin = cfg_.tool_margin;
+    b.size_step = cfg_.size_step;
+    b.min_scale = cfg_.min_scale;
+    b.max_scale = cfg_.max_scale;
+    b.ring_capacity = cfg_.input.kind == InputSpec::Kind::replay ? kReplayRingCapacity : kRingCapacity;
+    return b;
+  }
+
+  static void log_scene_warnings(const scene::Scene& s) {
+    for (const auto& w : s.warnings) log::warning("scene {}: {}", s.file.string(), w);
+    for (const auto& m : s.meshes)
+      for (const auto& w : m.loaded.warnings) log::warning("scene {}: mesh {}: {}", s.file.string(), m.name, w);
   }
 
   // Takes the parts in (no sim thread running; the caller has moved out
   // whatever of the old stages and published state it still needs), with a
   // published state whose ticks go on from first_tick.
-  void install(SimParts p, std::uint64_t first_tick) {
+  void install(Simulation p, std::uint64_t first_tick) {
     scene_ = std::move(p.scene);
     rate_ = p.rate;
     tools_ = p.tools;
     world_ = std::move(p.world);
     stages_ = std::move(p.stages);
+    scene_info_ = std::move(p.info);
     published_ = std::make_unique<server::PublishedState>(*world_, rate_, first_tick);
     stages_->set_published(published_.get());
   }
@@ -383,35 +344,44 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     so.wake_early_needs_fifo = !cfg_.wake_early_us.has_value();
     so.first_tick = first_tick;
     if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
-    sim_ = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
-    if (paused) sim_->request_pause(true);
-    const loop::RealtimeResult rt = sim_->start();
+    auto sim = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
+    if (paused) sim->request_pause(true);
+    const loop::RealtimeResult rt = sim->start();
+    sim_ = std::move(sim);
     for (const auto& w : rt.warnings) log::warning("{}", w);
     if (cfg_.realtime && rt.fifo) log::info("sim thread: SCHED_FIFO priority {}{}", cfg_.realtime_priority,
                                             rt.locked ? ", memory locked" : "");
   }
 
-  // Replaces the running simulation with `next` (a loaded scene, or the
-  // current one again for reset): the sim thread stops, the new world takes
-  // over the tick count, the queued inputs and the attached devices, viewers
-  // get a new snapshot. On an error before the stop, nothing changes.
-  std::string swap_scene(scene::Scene next, const char* what) {
-    SimParts parts;
+  // After a swap whose new sim thread could not start (no thread could be
+  // created): the world is installed, its thread starts as soon as it can.
+  void restart_sim_if_missing() {
+    if (sim_) return;
     try {
-      parts = build_sim(std::move(next));
+      start_sim(pending_start_tick_, pending_start_paused_);
+      log::notice("sim thread started at tick {}", pending_start_tick_);
     } catch (const std::exception& e) {
-      log::warning("{}: {}; keeping the current sculpt", what, e.what());
-      return e.what();
+      if (!start_failure_logged_) log::err("cannot start the sim thread: {}; retrying", e.what());
+      start_failure_logged_ = true;
     }
-    const bool paused = sim_->paused();
-    sim_->stop();
-    const std::uint64_t tick = sim_->ticks();
+  }
+
+  // Replaces the running simulation with `next`, already built (a loaded
+  // scene, or the current one again for reset): the sim thread stops, the
+  // new world takes over the tick count, the queued inputs and the attached
+  // devices, viewers get a new snapshot. Nothing of this can fail but the
+  // new thread's start, which is retried (restart_sim_if_missing).
+  void swap_in(Simulation next, const char* what) {
+    const bool paused = sim_ ? sim_->paused() : pending_start_paused_;
+    if (sim_) sim_->stop();
+    const std::uint64_t tick = sim_ ? sim_->ticks() : pending_start_tick_;
     sim_.reset();
     // The old stages hold the queued inputs and the bindings; viewers read
     // the old published state until set_scene() below.
     std::unique_ptr<SculptStages> old = std::move(stages_);
     std::unique_ptr<server::PublishedState> old_published = std::move(published_);
-    install(std::move(parts), tick);  // the new published state continues from the tick the old one reached
+    std::unique_ptr<sim::World<float>> old_world = std::move(world_);
+    install(std::move(next), tick);  // the new published state continues from the tick the old one reached
     // Devices first (as attach messages due now, bound to the new scene's
     // tools, live or recorded alike), then what was queued.
     router_.set_routes(loop::tool_routes(scene_));
@@ -424,14 +394,54 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
           push(input::InputMessage::attach(slot, bind_recorded(slot, recorded[slot])), "attach");
     }
     while (auto m = old->ring().try_pop()) push(*m, "queued");
-    server_->set_scene(scene_info(scene_, rate_), *published_);
+    server_->set_scene(scene_info_, *published_);
     tell_server_devices();
     old.reset();
     old_published.reset();
-    start_sim(tick, paused);
+    old_world.reset();
+    blowups_.reset(mesh_names());
+    pending_start_tick_ = tick;
+    pending_start_paused_ = paused;
+    start_failure_logged_ = false;
+    restart_sim_if_missing();
     log::notice("{}: scene {} ({} meshes, {} vertices) from tick {}", what, scene_.file.string(), scene_.meshes.size(),
                 vertices_of(scene_), tick);
-    return {};
+  }
+
+  // Builds `build()`'s scene on the worker thread, then swaps it in on the
+  // io thread: the io loop serves clients and feeds the watchdog meanwhile.
+  // Resolves to "" or the error (the running sculpt is then untouched). The
+  // build goes on when the caller goes away (a client disconnecting).
+  kj::Promise<std::string> load_off_loop(std::function<scene::Scene()> read, const char* what) {
+    if (worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");
+    struct Job {
+      std::optional<Simulation> built;
+      std::string error;
+    };
+    auto job = std::make_shared<Job>();
+    const SimulationSettings settings = simulation_settings();
+    haptics::FeedbackBoard& board = *board_;
+    auto done = worker_.run([job, read = std::move(read), settings, &board] {
+      try {
+        job->built.emplace(build_simulation(read(), settings, board));
+      } catch (const std::exception& e) {
+        job->error = e.what();
+      }
+    }).then([this, job, what]() -> std::string {
+      if (!job->error.empty() || stopping_) {
+        if (!job->error.empty()) log::warning("{}: {}; keeping the current sculpt", what, job->error);
+        return job->error.empty() ? std::string("the daemon is stopping") : job->error;
+      }
+      log_scene_warnings(job->built->scene);
+      swap_in(std::move(*job->built), what);
+      return std::string();
+    }, [what](kj::Exception&& e) -> std::string {
+      log::err("{}: {}", what, e.getDescription().cStr());
+      return e.getDescription().cStr();
+    });
+    auto forked = done.fork();
+    tasks_->add(forked.addBranch().ignoreResult());
+    return forked.addBranch();
   }
 
   void remember_device(std::uint8_t slot, const input::DeviceInfo& info, const input::DeviceBinding& b) {
@@ -464,17 +474,17 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   // --- server::Control (io thread) -------------------------------------------
   server::DaemonStatus status() override {
     server::DaemonStatus d;
-    d.stats = loop::snapshot(sim_->stats(), rate_);
-    const loop::LatencyHistogram& j = sim_->stats().jitter;
+    d.stats = loop::snapshot(loop_stats(), rate_);
+    const loop::LatencyHistogram& j = loop_stats().jitter;
     for (std::size_t i = 0; i < loop::LatencyHistogram::kBuckets; ++i)
       if (const std::uint64_t n = j.bucket(i))
         d.jitter.push_back({loop::LatencyHistogram::lower_bound(i), loop::LatencyHistogram::upper_bound(i), n});
     d.stats.devices = device_count();
     d.stats.ff_uploads = haptics_ ? haptics_->stats().ff.uploads.load() : 0;
-    d.paused = sim_->paused();
+    d.paused = paused_now();
     d.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
     d.scene = scene_.file.string();
-    d.sim_time_ns = static_cast<std::uint64_t>(std::llround(static_cast<double>(sim_->ticks()) * 1e9 / rate_));
+    d.sim_time_ns = static_cast<std::uint64_t>(std::llround(static_cast<double>(current_tick()) * 1e9 / rate_));
     return d;
   }
   std::vector<server::DeviceEntry> devices() override {
@@ -487,31 +497,24 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     }
     return out;
   }
-  std::string load_scene(const std::string& path) override {
+  kj::Promise<std::string> load_scene(const std::string& path) override {
+    if (path.empty()) return std::string("the scene path is empty");
     if (path != "builtin:default" && !std::filesystem::path(path).is_absolute())
       return "scene path must be absolute (the daemon's working directory is not yours): " + path;
-    scene::Scene next;
-    try {
-      next = scene::load_scene(path);
-    } catch (const std::exception& e) {
-      log::warning("load scene: {}; keeping the current sculpt", e.what());
-      return e.what();
-    }
-    for (const auto& w : next.warnings) log::warning("scene {}: {}", next.file.string(), w);
-    return swap_scene(std::move(next), "load scene");
+    return load_off_loop([path] { return scene::load_scene(path); }, "load scene");
   }
-  std::string reset() override {
+  kj::Promise<std::string> reset() override {
     // The scene as loaded, again (meshes keep their loaded shapes in it).
-    scene::Scene again = scene_;
-    return swap_scene(std::move(again), "reset");
+    return load_off_loop([again = scene_] { return again; }, "reset");
   }
   std::string set_paused(bool paused) override {
+    if (!sim_) return "the sim thread is not running (it could not be started; see the log)";
     if (!sim_->request_pause(paused)) return "the sim thread's command ring is full; try again";
     log::info("{}", paused ? "paused" : "resumed");
     return {};
   }
 
-  bool paused_now() override { return sim_->paused(); }
+  bool paused_now() override { return sim_ ? sim_->paused() : pending_start_paused_; }
 
   kj::Promise<void> watch_signal(int sig) {
     return io_.unixEventPort.onSignal(sig).then([this, sig](siginfo_t) -> kj::Promise<void> {
@@ -569,15 +572,36 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     });
   }
 
+  // Queues the replay as far ahead as the ring holds. A file that changed
+  // under us after the start's check (a bad line) ends the replay, with the
+  // error, and never the daemon: the sculpt goes on with what was played.
+  void pump_replay() {
+    if (!replay_ || replay_failed_ || replay_->finished()) return;
+    try {
+      replay_->pump(stages_->ring());
+    } catch (const std::exception& e) {
+      replay_failed_ = true;
+      log::err("replay ended early: {}; the sculpt goes on without its remaining frames", e.what());
+    }
+  }
+
+  void log_blowups(std::chrono::steady_clock::time_point now) {
+    const std::string line = blowups_.check(loop_stats(), current_tick(), now);
+    if (!line.empty()) log::warning("{}", line);
+  }
+
   void housekeep() {
     const auto now = std::chrono::steady_clock::now();
+    restart_sim_if_missing();
+    log_blowups(now);
+    if (!sim_) return;
     announce_ready_once();
     if (sim_->finished()) {
       log::info("duration reached: {} ticks", sim_->ticks());
       request_stop(0);
       return;
     }
-    if (replay_ && !replay_->finished()) replay_->pump(stages_->ring());  // as far ahead as the ring holds
+    pump_replay();
     if (watchdog_ && now >= next_watchdog_) {
       // Only a ticking sim thread keeps the service alive: a stuck one gets
       // the process restarted (Restart=on-failure) after WatchdogSec.
@@ -668,7 +692,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     devices_.reset();
     if (epoll_ >= 0) ::close(epoll_);
     epoll_ = -1;
-    loop::StatsSnapshot s = loop::snapshot(sim_->stats(), rate_);
+    loop::StatsSnapshot s = loop::snapshot(loop_stats(), rate_);
     s.devices = devices;
     s.ff_uploads = haptics_->stats().ff.uploads.load();
     s.viewers = server_ ? server_->viewers() : 0;
@@ -709,10 +733,18 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<SculptStages> stages_;
   std::unique_ptr<haptics::HapticsThread> haptics_;
   std::unique_ptr<input::ReplaySource> replay_;
+  bool replay_failed_ = false;
   std::unique_ptr<input::DeviceManager> devices_;
   std::unique_ptr<server::PublishedState> published_;
   std::map<std::uint8_t, server::DeviceEntry> known_devices_;
   std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
+  loop::LoopStats idle_stats_;             // loop_stats() while sim_ is missing
+  std::uint64_t pending_start_tick_ = 0;   // where a sim thread that could not start will start
+  bool pending_start_paused_ = false;
+  bool start_failure_logged_ = false;
+  server::SceneInfo scene_info_;           // of scene_, for the server
+  BlowupLog blowups_;
+  Worker worker_;                          // loads scenes off the io loop
   std::unique_ptr<server::Server> server_;
   std::unique_ptr<server::ListenSocket> listen_;
   std::string socket_path_;

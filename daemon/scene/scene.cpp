@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "files/regular_file.hpp"
 #include "sim/shapes.hpp"
 #include "sim/stability.hpp"
 
@@ -247,6 +248,8 @@ sim::TriangleMesh make_builtin_shape(const std::string& shape, const Table& p, b
 sim::SimSettings parse_simulation(const Table& t) {
   sim::SimSettings s;
   s.rate_hz = t.positive("rate_hz", s.rate_hz);
+  if (!(s.rate_hz >= kMinRateHz && s.rate_hz <= kMaxRateHz))
+    t.fail("rate_hz", fmt::format("must be in [{}, {}] Hz, got {}", kMinRateHz, kMaxRateHz, s.rate_hz));
   if (const toml::node* n = t.get("substeps")) {
     if (auto str = n->as_string()) {
       if (str->get() != "auto") t.fail("substeps", fmt::format("must be \"auto\" or an integer >= 1, not '{}'", str->get()));
@@ -543,6 +546,7 @@ Scene parse_scene(std::string_view text, const fs::path& file, const SceneOption
     for (std::size_t i = 0; i < tools->size(); ++i) {
       const Table t(file, *tools->get(i)->as_table(), fmt::format("[[tool]] #{}", i + 1),
                     {"name", "shape", "radius", "half_length", "device", "stick", "position", "speed"});
+      if (i == kMaxTools) t.fail_here(fmt::format("more than {} tools: at most {} can be driven", kMaxTools, kMaxTools));
       SceneTool tool = parse_tool(t, i);
       if (!tool_names.insert(tool.name).second) t.fail("name", fmt::format("'{}' is already used by another tool", tool.name));
       for (const SceneTool& other : scene.tools) {
@@ -565,18 +569,13 @@ Scene load_scene(const fs::path& file, const SceneOptions& options) {
   if (file.string().rfind("builtin:", 0) == 0) {
     throw SceneError(file, 0, "no such built-in scene (there is builtin:default; builtin: shapes go in a [[mesh]])");
   }
-  std::error_code ec;
-  const fs::file_status status = fs::status(file, ec);
-  if (!fs::exists(status)) throw SceneError(file, 0, "no such file");
-  if (fs::is_directory(status)) throw SceneError(file, 0, "is a directory, not a scene file");
-  if (fs::is_regular_file(status) && fs::file_size(file, ec) > kMaxSceneBytes) {
-    throw SceneError(file, 0, "is larger than 16 MiB: not a scene file");
+  std::string text;
+  try {
+    text = files::read_regular(file, kMaxSceneBytes);
+  } catch (const files::FileError& e) {
+    throw SceneError(file, 0, e.reason());
   }
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw SceneError(file, 0, "cannot open for reading");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_scene(text.str(), file, options);
+  return parse_scene(text, file, options);
 }
 
 Scene default_scene(const SceneOptions& options) {

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <kj/async.h>
+
 #include "loop/stats_json.hpp"
 
 namespace sculpt::server {
@@ -62,9 +64,11 @@ class Control {
   virtual ~Control() = default;
   virtual DaemonStatus status() = 0;
   virtual std::vector<DeviceEntry> devices() = 0;
-  // Each returns "" on success, else what went wrong (naming the file/field).
-  virtual std::string load_scene(const std::string& path) = 0;
-  virtual std::string reset() = 0;
+  // Each resolves to "" on success, else what went wrong (naming the
+  // file/field); the running sculpt is untouched on failure. The work runs
+  // off the io loop, which serves everyone meanwhile.
+  virtual kj::Promise<std::string> load_scene(const std::string& path) = 0;
+  virtual kj::Promise<std::string> reset() = 0;
   // Asks; the sim thread applies it at its next tick boundary.
   virtual std::string set_paused(bool paused) = 0;
   // What the sim thread runs now (pause answers once this agrees: a snapshot

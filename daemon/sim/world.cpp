@@ -199,6 +199,8 @@ void World<S>::step(std::span<const Tool> tools) {
     tr.known = true;
   }
   stats_.blowups_total = blowups_total_;
+  stats_.last_blowup_body = last_blowup_body_;
+  stats_.last_blowup_cause = last_blowup_cause_;
 }
 
 template <class S>
@@ -999,6 +1001,8 @@ void World<S>::step_body(std::uint32_t bi) {
     ++b.blowups;
     ++blowups_total_;
     ++stats_.blowups;
+    last_blowup_body_ = bi;
+    last_blowup_cause_ = finite ? BlowupCause::energy_growth : BlowupCause::non_finite;
     b.boost = std::min(kMaxBoost, b.boost * 2);
     for (std::uint32_t t = 0; t < tool_slots_; ++t) {
       // Nothing from a diverged step reaches the haptics.

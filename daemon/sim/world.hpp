@@ -30,6 +30,8 @@ struct ChangeRange {
   std::uint32_t end;
 };
 
+enum class BlowupCause : std::uint8_t { non_finite, energy_growth };
+
 struct TickStats {
   std::uint64_t vertex_steps = 0;    // vertices integrated × substeps, this tick
   std::uint32_t awake_blocks = 0;    // blocks integrated this tick
@@ -38,6 +40,10 @@ struct TickStats {
   std::uint32_t contacts = 0;
   std::uint32_t blowups = 0;         // meshes restored this tick
   std::uint64_t blowups_total = 0;
+  // The latest blow-up (valid once blowups_total > 0): which body, and
+  // whether a position went non-finite or the energy grew with no input.
+  std::uint32_t last_blowup_body = 0;
+  BlowupCause last_blowup_cause = BlowupCause::non_finite;
   std::uint32_t ignored_tools = 0;   // tool inputs rejected this tick (non-finite, bad radius)
 };
 
@@ -152,6 +158,8 @@ class World {
   TickStats stats_;
   std::uint64_t tick_ = 0;
   std::uint64_t blowups_total_ = 0;
+  std::uint32_t last_blowup_body_ = 0;
+  BlowupCause last_blowup_cause_ = BlowupCause::non_finite;
   StageClock stage_clock_ = nullptr;
   std::uint64_t collision_ns_ = 0;
 };

@@ -31,8 +31,8 @@ class FakeControl final : public server::Control {
     e.tools = {0};
     return {e};
   }
-  std::string load_scene(const std::string& path) override { return "not here: " + path; }
-  std::string reset() override { return {}; }
+  kj::Promise<std::string> load_scene(const std::string& path) override { return "not here: " + path; }
+  kj::Promise<std::string> reset() override { return std::string(); }
   std::string set_paused(bool p) override {
     paused = p;
     return {};

@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "scene/mesh_import.hpp"
 #include "scene/scene.hpp"
+#include "scene/scene_world.hpp"
 #include "sim/stability.hpp"
 
 namespace sculpt::ctl {
@@ -128,8 +129,12 @@ void inspect(const InspectArgs& args) {
     throw CommandFailed{kExitUsage};
   }
   Scene s;
+  std::vector<std::string> unstable;  // per mesh, "" when stable
   try {
     s = is_scene(args.file) ? scene::load_scene(args.file) : scene_of_mesh(args);
+    // What sculptd would check before running it, and a short stability probe.
+    auto world = scene::build_world(s, s.settings.rate_hz);
+    unstable = scene::probe_stability(*world, s);
   } catch (const std::exception& e) {  // LoadError / SceneError: already one line naming the file
     cli::error(e.what());
     throw CommandFailed{kExitCommandFailed};
@@ -150,9 +155,11 @@ void inspect(const InspectArgs& args) {
   } else if (s.meshes.empty()) {
     for (const std::string& w : s.warnings) cli::warning(w);
   }
-  for (const SceneMesh& m : s.meshes) {
+  for (std::size_t i = 0; i < s.meshes.size(); ++i) {
+    const SceneMesh& m = s.meshes[i];
     sim::SubstepChoice sub{};
     std::vector<std::string> extra;
+    if (i < unstable.size() && !unstable[i].empty()) extra.push_back(unstable[i]);
     try {
       sub = sim::choose_substeps(m.loaded.mesh, s.material_of(m), s.settings);
     } catch (const std::invalid_argument& e) {

@@ -1,0 +1,48 @@
+// One scene's simulation: the world, the sim thread's stages and what the
+// streaming server shows of it, built completely before anything running is
+// touched. Starting, loading and resetting all build one; a swap replaces the
+// running one only once the new one exists (docs/daemon.md: a load is a
+// transaction). Building may take seconds (a 2M-triangle mesh) and runs off
+// the io thread (main/worker.hpp), so it reads nothing of the daemon's but
+// its arguments.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <optional>
+
+#include "haptics/feedback_board.hpp"
+#include "main/pipeline.hpp"
+#include "scene/scene.hpp"
+#include "server/control.hpp"
+#include "sim/world.hpp"
+
+namespace sculpt::daemon {
+
+// What of the daemon's configuration a build needs, copied when it starts.
+struct SimulationSettings {
+  std::optional<double> rate_hz;   // --rate / the config; unset: the scene's
+  double tool_margin = 0.1;        // loop::DriverLimits
+  double size_step = 1.15;
+  double min_scale = 0.25;
+  double max_scale = 4.0;
+  std::size_t ring_capacity = 4096;  // io → sim input messages in flight
+};
+
+struct Simulation {
+  scene::Scene scene;
+  double rate = 0;
+  std::size_t tools = 0;
+  std::unique_ptr<sim::World<float>> world;
+  std::unique_ptr<SculptStages> stages;
+  server::SceneInfo info;          // what viewers get told about the scene
+};
+
+// Throws (scene::SceneError, std::invalid_argument) naming what is wrong;
+// scene::build_world makes the checks every reader of a scene shares.
+Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board);
+
+// What streaming clients need to know about a scene that never changes while it is loaded.
+server::SceneInfo scene_info(const scene::Scene& s, double rate_hz);
+
+}  // namespace sculpt::daemon
