@@ -50,6 +50,7 @@ class Formatter : public CLI::Formatter {
 
   std::string make_option_opts(const CLI::Option* opt) const override {
     if (!opt->get_option_text().empty()) return " " + opt->get_option_text();
+    if (opt->get_positional()) return opt->get_required() ? " (required)" : "";  // its name says what it is
     std::string out;
     if (opt->get_type_size() != 0) {
       const std::string name = value_name(opt);

@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "loop/sim_thread.hpp"
+#include "server/checked_stream.hpp"
 #include "server/encode.hpp"
 
 namespace sculpt::server {
@@ -42,6 +43,7 @@ struct Server::Stream {
   std::uint64_t evaluated = 0;                // reader serial its baseline was compared at
   PublishedHeader sent_header{};              // tools as last sent
   std::uint64_t sequence = 0;                 // of the last frame or snapshot sent
+  std::uint64_t snapshots = 0;                // sent to this viewer
   std::int64_t last_send_ns = 0, last_stats_ns = 0;
   bool needs_snapshot = true;
   bool in_flight = false;
@@ -95,10 +97,14 @@ class SessionImpl final : public proto::Session::Server {
   }
   kj::Promise<void> loadScene(LoadSceneContext context) override {
     const std::string path = context.getParams().getPath();
-    return result(context.getResults().initResult(), server_.control().load_scene(path));
+    return server_.control().load_scene(path).then([context](std::string error) mutable {
+      fill(context.getResults().initResult(), error);
+    });
   }
   kj::Promise<void> reset(ResetContext context) override {
-    return result(context.getResults().initResult(), server_.control().reset());
+    return server_.control().reset().then([context](std::string error) mutable {
+      fill(context.getResults().initResult(), error);
+    });
   }
   kj::Promise<void> pause(PauseContext context) override {
     const std::string error = server_.control().set_paused(true);
@@ -122,9 +128,12 @@ class SessionImpl final : public proto::Session::Server {
                           : "the simulation thread did not resume within 2 s (stalled or finished)");
     });
   }
-  static kj::Promise<void> result(proto::Result::Builder r, const std::string& error) {
+  static void fill(proto::Result::Builder r, const std::string& error) {
     r.setOk(error.empty());
     r.setError(error);
+  }
+  static kj::Promise<void> result(proto::Result::Builder r, const std::string& error) {
+    fill(r, error);
     return kj::READY_NOW;
   }
   server::Server& server_;
@@ -143,7 +152,12 @@ class SculptdImpl final : public proto::Sculptd::Server {
     r.setMinor(proto::PROTOCOL_MINOR);
     r.setServer(server_.options().name);
     const std::string who = p.getClient();
-    server_.said_hello(client_);
+    server_.said_hello(client_, who);
+    if (const std::string refusal = server_.refusal(client_); !refusal.empty()) {
+      r.setAccepted(false);
+      r.setReason(refusal);
+      return kj::READY_NOW;
+    }
     if (p.getMajor() != proto::PROTOCOL_MAJOR) {
       const std::string reason = fmt::format("this daemon speaks protocol {}.{}, the client {}.{}; no major but {} "
                                              "is understood",
@@ -172,10 +186,19 @@ class SculptdImpl final : public proto::Sculptd::Server {
 struct Server::Client {
   std::uint64_t id = 0;
   std::string peer;
-  bool hello = false;   // a valid hello arrived (else: garbage, a silent or truncated client)
+  std::string name;      // what its hello said it is
+  bool hello = false;    // a valid hello arrived (else: garbage, a silent or truncated client)
+  std::string refusal;   // served only to be told this (the client table was full)
+  std::string violation; // the limit its messages broke (checked_stream.hpp), for the log
+  std::int64_t connected_ns = 0;
   kj::Own<kj::AsyncIoStream> stream;
+  kj::Own<CheckedMessageStream> messages;
   kj::Own<capnp::TwoPartyVatNetwork> network;
   kj::Own<capnp::RpcSystem<capnp::rpc::twoparty::VatId>> rpc;
+
+  std::string who() const {
+    return name.empty() ? fmt::format("client {} ({})", id, peer) : fmt::format("client {} ({}, \"{}\")", id, peer, name);
+  }
 };
 
 void Server::Errors::taskFailed(kj::Exception&& e) {
@@ -208,6 +231,7 @@ void Server::set_scene(SceneInfo info, const PublishedState& state) {
   std::uint64_t bytes = 4096;
   for (const auto& m : scene_.meshes) bytes += m.rest.size() * 8 + m.triangles.size() * 4 + m.name.size() + 256;
   receive_limit_words_ = std::max<std::uint64_t>(options_.traversal_limit_words, bytes / 8 * 2);
+  snapshot_bytes_ = bytes;
   scratch_.assign(reader_->body_count(), {});
   for (auto& [id, s] : streams_) s->needs_snapshot = true;
 }
@@ -240,33 +264,64 @@ kj::Promise<void> Server::accept_loop() {
     std::string peer = ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0
                            ? fmt::format("pid {} uid {} gid {}", cred.pid, cred.uid, cred.gid)
                            : std::string("peer unknown");
+    std::string refusal;
     if (clients_.size() >= options_.max_clients) {
-      ::close(fd);
-      ++counters_.refused;
-      const std::int64_t now = loop::monotonic_ns();
-      if (options_.log && now - refused_logged_ns_ > 1'000'000'000) {
-        options_.log(4, fmt::format("refusing a client ({}): {} clients already connected ({} refused so far)", peer,
-                                    clients_.size(), counters_.refused));
-        refused_logged_ns_ = now;
+      // A connection that has said nothing yet makes room: silent or
+      // half-open connections never lock the others out.
+      if (const std::uint64_t silent = oldest_silent(); silent != 0) {
+        ++counters_.evicted;
+        drop(silent, fmt::format("closed to make room for a new connection: it had said no hello, and {} clients "
+                                 "are the limit (max_clients)",
+                                 options_.max_clients));
+      } else {
+        ++counters_.refused;
+        refusal = fmt::format("{} clients are connected, the limit (max_clients); try again later",
+                              options_.max_clients);
+        std::size_t refusing = 0;
+        for (const auto& [cid, c] : clients_) refusing += !c->refusal.empty();
+        const std::int64_t now = loop::monotonic_ns();
+        if (options_.log && now - refused_logged_ns_ > 1'000'000'000) {
+          options_.log(4, fmt::format("refusing a client ({}): {} ({} refused so far)", peer, refusal,
+                                      counters_.refused));
+          refused_logged_ns_ = now;
+        }
+        if (refusing >= options_.max_refusing) {  // no answer for this one: closed at once
+          ::close(fd);
+          continue;
+        }
       }
-      continue;
     }
-    serve(io_.lowLevelProvider->wrapSocketFd(fd, kj::LowLevelAsyncIoProvider::TAKE_OWNERSHIP), kj::mv(peer));
+    serve_client(io_.lowLevelProvider->wrapSocketFd(fd, kj::LowLevelAsyncIoProvider::TAKE_OWNERSHIP), kj::mv(peer),
+                 kj::mv(refusal));
   }
   return listen_observer_->whenBecomesReadable().then([this] { return accept_loop(); });
 }
 
 void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
+  serve_client(kj::mv(stream), kj::mv(peer), {});
+}
+
+void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal) {
   auto c = std::make_unique<Client>();
   c->id = next_client_++;
   c->peer = std::move(peer);
+  c->refusal = std::move(refusal);
+  c->connected_ns = loop::monotonic_ns();
   c->stream = kj::mv(stream);
+  MessageLimits incoming;
+  incoming.max_bytes = options_.max_message_bytes;
+  incoming.max_capabilities = options_.max_message_capabilities;
+  incoming.nesting = options_.nesting_limit;
+  c->messages = kj::heap<CheckedMessageStream>(*c->stream, incoming, c->violation);
+  // These options bound what the daemon SENDS (capnp refuses to send more
+  // than it would receive); what a client sends is bounded by `incoming`.
   capnp::ReaderOptions limits;
   limits.traversalLimitInWords = std::max(options_.traversal_limit_words, receive_limit_words_);
   limits.nestingLimit = options_.nesting_limit;
-  c->network = kj::heap<capnp::TwoPartyVatNetwork>(*c->stream, capnp::rpc::twoparty::Side::SERVER, limits);
+  c->network = kj::heap<capnp::TwoPartyVatNetwork>(*c->messages, capnp::rpc::twoparty::Side::SERVER, limits);
   c->rpc = kj::heap<capnp::RpcSystem<capnp::rpc::twoparty::VatId>>(
       capnp::makeRpcServer(*c->network, kj::heap<SculptdImpl>(*this, c->id, c->peer)));
+  c->rpc->setFlowLimit(options_.flow_limit_words);
   ++counters_.connections;
   if (options_.log) options_.log(6, fmt::format("client {} connected ({})", c->id, c->peer));
   const std::uint64_t id = c->id;
@@ -275,29 +330,95 @@ void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
   tasks_->add(done.then(
       [this, id] {
         auto it = clients_.find(id);
-        if (it == clients_.end()) return;
+        if (it == clients_.end()) return;  // dropped by the server: already logged
+        const Client& c = *it->second;
         if (options_.log) {
-          if (it->second->hello) options_.log(6, fmt::format("client {} disconnected ({})", id, it->second->peer));
-          else options_.log(4, fmt::format("client {} ({}) dropped: it sent no valid hello (garbage, truncated or "
-                                           "nothing)", id, it->second->peer));
+          if (!c.violation.empty()) options_.log(4, fmt::format("{} disconnected: {}", c.who(), c.violation));
+          else if (c.hello) options_.log(6, fmt::format("{} disconnected", c.who()));
+          else options_.log(4, fmt::format("{} dropped: it sent no valid hello (garbage, truncated or nothing)", c.who()));
         }
+        if (!c.violation.empty()) ++counters_.limits_hit;
         ++counters_.disconnected;
         for (auto& [sid, s] : streams_)
           if (s->client == id) s->dead = true;
         clients_.erase(it);
       },
       [this, id](kj::Exception&& e) {
-        if (options_.log) options_.log(4, fmt::format("client {} dropped: {}", id, e.getDescription().cStr()));
+        auto it = clients_.find(id);
+        if (it == clients_.end()) return;
+        if (options_.log)
+          options_.log(4, fmt::format("{} dropped: {}", it->second->who(),
+                                      it->second->violation.empty() ? e.getDescription().cStr()
+                                                                    : it->second->violation.c_str()));
         ++counters_.disconnected;
-        clients_.erase(id);
+        for (auto& [sid, s] : streams_)
+          if (s->client == id) s->dead = true;
+        clients_.erase(it);
       }));
+  // A connection that says nothing holds a place; not for long.
+  tasks_->add(io_.provider->getTimer().afterDelay(options_.hello_timeout).then([this, id] {
+    auto it = clients_.find(id);
+    if (it == clients_.end() || it->second->hello) return;
+    drop(id, fmt::format("it said no hello within {} s (hello_timeout)", options_.hello_timeout / kj::SECONDS));
+  }));
 }
 
+void Server::drop(std::uint64_t id, const std::string& why) {
+  auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  if (options_.log) options_.log(4, fmt::format("{} disconnected: {}", it->second->who(), why));
+  ++counters_.disconnected;
+  if (it->second->refusal.empty()) ++counters_.limits_hit;
+  for (auto& [sid, s] : streams_)
+    if (s->client == id) s->dead = true;
+  clients_.erase(it);  // closes the socket; its calls and their replies go with it
+}
+
+std::uint64_t Server::oldest_silent() const {
+  std::uint64_t best = 0;
+  std::int64_t at = 0;
+  for (const auto& [id, c] : clients_)
+    if (!c->hello && (best == 0 || c->connected_ns < at)) best = id, at = c->connected_ns;
+  return best;
+}
+
+std::uint64_t Server::max_queued_bytes() const { return std::max(options_.max_queued_bytes, 4 * snapshot_bytes_); }
+
+void Server::check_queues() {
+  const std::uint64_t limit = max_queued_bytes();
+  std::vector<std::pair<std::uint64_t, std::string>> over;
+  for (const auto& [id, c] : clients_) {
+    const std::size_t queued = c->network->getCurrentQueueSize();
+    if (queued > limit)
+      over.emplace_back(id, fmt::format("{} bytes of replies and frames it has not read (limit: {}, max_queued_bytes)",
+                                        queued, limit));
+    else if (!c->refusal.empty() && c->hello && c->network->getCurrentQueueCount() == 0)
+      over.emplace_back(id, c->refusal);  // the refusal was written: close it
+  }
+  for (const auto& [id, why] : over) drop(id, why);
+}
+
+namespace {
+
+// A tolerance is metres: finite and not negative (0: every change). The
+// call fails with the reason otherwise.
+float checked_tolerance(float tolerance) {
+  KJ_REQUIRE(std::isfinite(tolerance) && tolerance >= 0,
+             "toleranceM must be a finite number of metres >= 0 (0 sends every change)", tolerance);
+  return tolerance;
+}
+
+}  // namespace
+
 std::uint64_t Server::add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client) {
+  std::size_t mine = 0;
+  for (const auto& [id, st] : streams_) mine += st->client == client && !st->dead;
+  KJ_REQUIRE(mine < options_.max_viewers_per_client,
+             "too many subscriptions on one connection (max_viewers_per_client)", options_.max_viewers_per_client);
   auto s = std::make_unique<Stream>(kj::mv(viewer));
   s->id = next_stream_++;
   s->client = client;
-  s->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+  s->tolerance = checked_tolerance(tolerance);
   s->fps = clamp_fps(fps, options_.default_fps);
   const std::uint64_t id = s->id;
   if (options_.log)
@@ -319,8 +440,8 @@ void Server::set_rate(std::uint64_t id, float fps) {
 }
 
 void Server::set_tolerance(std::uint64_t id, float tolerance) {
-  if (auto it = streams_.find(id); it != streams_.end())
-    it->second->tolerance = std::isfinite(tolerance) && tolerance > 0 ? tolerance : 0.0f;
+  const float checked = checked_tolerance(tolerance);
+  if (auto it = streams_.find(id); it != streams_.end()) it->second->tolerance = checked;
 }
 
 kj::Promise<bool> Server::until_paused(bool paused, int tries) {
@@ -332,8 +453,16 @@ kj::Promise<bool> Server::until_paused(bool paused, int tries) {
   });
 }
 
-void Server::said_hello(std::uint64_t client) {
-  if (auto it = clients_.find(client); it != clients_.end()) it->second->hello = true;
+void Server::said_hello(std::uint64_t client, const std::string& name) {
+  if (auto it = clients_.find(client); it != clients_.end()) {
+    it->second->hello = true;
+    it->second->name = name.substr(0, 128);
+  }
+}
+
+std::string Server::refusal(std::uint64_t client) const {
+  const auto it = clients_.find(client);
+  return it == clients_.end() ? std::string() : it->second->refusal;
 }
 
 DaemonStatus Server::status_now() {
@@ -360,6 +489,7 @@ kj::Promise<void> Server::pump_loop() {
 }
 
 void Server::pump() {
+  check_queues();
   // Ended streams go first (never from inside their own promise).
   for (auto it = streams_.begin(); it != streams_.end();) {
     if (it->second->dead) {
@@ -411,7 +541,10 @@ void Server::send_snapshot(Stream& s) {
   }
   s.evaluated = reader_->serial();
   s.sent_header = reader_->header();
-  s.sequence = reader_->header().tick;
+  // Strictly increasing per viewer, also across a scene swap's new snapshot.
+  s.sequence = s.snapshots == 0 ? reader_->header().tick : std::max(reader_->header().tick, s.sequence + 1);
+  snap.setSequence(s.sequence);
+  ++s.snapshots;
   s.needs_snapshot = false;
   s.in_flight = true;
   s.last_send_ns = loop::monotonic_ns();
@@ -452,7 +585,9 @@ bool Server::send_frame(Stream& s, std::int64_t now) {
 
   auto req = s.viewer.frameRequest();
   auto f = req.initFrame();
-  f.setSequence(std::max(h.tick, s.sequence));
+  // Strictly increasing per viewer: a frame at the same tick as the last
+  // (a keep-alive while paused, tools moved) goes one past it.
+  f.setSequence(std::max(h.tick, s.sequence + 1));
   f.setSimTimeNs(static_cast<std::uint64_t>(std::llround(static_cast<double>(h.tick) * 1e9 / scene_.rate_hz)));
   f.setPublishedNs(h.published_ns);
   auto meshes = f.initMeshes(static_cast<unsigned>(changed_meshes));

@@ -29,9 +29,17 @@
 
 namespace sculpt::server {
 
+// Per-client limits (docs/protocol.md lists them): a client over one is
+// disconnected with a log line naming it and the limit; the others never
+// notice.
 struct ServerOptions {
   std::string name = "sculptd";
-  std::size_t max_clients = 64;              // more are refused (closed at once)
+  // Connections at once. When the table is full a newcomer takes the place of
+  // the oldest connection that has not said hello; with none such, it is told
+  // why in an answer to its hello (refused: max_clients) and closed.
+  std::size_t max_clients = 64;
+  std::size_t max_refusing = 8;              // refusals answered at once; beyond, closed unanswered
+  kj::Duration hello_timeout = 5 * kj::SECONDS;  // a connection that says no hello within this is closed
   kj::Duration pump_period = 2 * kj::MILLISECONDS;
   std::int64_t keepalive_ns = 1'000'000'000; // an idle viewer gets an empty frame this often
   std::int64_t stats_every_ns = 1'000'000'000;
@@ -43,6 +51,18 @@ struct ServerOptions {
   // is accepted; a later, bigger scene needs viewers to reconnect only past it).
   std::uint64_t traversal_limit_words = 8 * 1024 * 1024;   // 64 MiB: snapshots of ~1M vertices
   int nesting_limit = 16;
+  // What a client sends: one message at most this big, with at most this
+  // many capabilities (checked_stream.hpp).
+  std::uint64_t max_message_bytes = 1 << 20;
+  unsigned max_message_capabilities = 8;
+  // Calls a client has made that are not answered yet, in words of their
+  // parameters (capnp's flow limit: past it, its messages are not read).
+  std::size_t flow_limit_words = 1 << 17;
+  // Replies and frames queued for one client that it has not read: past the
+  // larger of this and four snapshots of the scene, it is disconnected.
+  std::uint64_t max_queued_bytes = std::uint64_t{64} << 20;
+  // Subscriptions one connection may hold (each keeps a copy of the meshes).
+  std::size_t max_viewers_per_client = 4;
   // Where the server's log lines go (syslog priority: 3 error … 7 debug).
   std::function<void(int priority, const std::string& line)> log;
 };
@@ -50,6 +70,8 @@ struct ServerOptions {
 struct ServerCounters {
   std::uint64_t connections = 0;       // accepted so far
   std::uint64_t refused = 0;           // over max_clients
+  std::uint64_t evicted = 0;           // silent connections closed for a newcomer
+  std::uint64_t limits_hit = 0;        // clients disconnected over a limit
   std::uint64_t disconnected = 0;
   std::uint64_t frames = 0;            // delta frames sent (keep-alives included)
   std::uint64_t keepalives = 0;
@@ -94,7 +116,9 @@ class Server {
   void remove_stream(std::uint64_t id);
   void set_rate(std::uint64_t id, float fps);
   void set_tolerance(std::uint64_t id, float tolerance);
-  void said_hello(std::uint64_t client);
+  void said_hello(std::uint64_t client, const std::string& name);
+  // The hello of a connection served only to be refused: its answer ("" for the others).
+  std::string refusal(std::uint64_t client) const;
   // Resolves true once the sim thread reports `paused`, false after `tries` ms.
   kj::Promise<bool> until_paused(bool paused, int tries = 2000);
   const ServerOptions& options() const { return options_; }
@@ -105,6 +129,15 @@ class Server {
     void taskFailed(kj::Exception&& e) override;
   };
   kj::Promise<void> accept_loop();
+  // A connection, served (`refusal` non-empty: its hello is answered with
+  // that and it is closed after).
+  void serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal);
+  // Closes a client over a limit, with the log line.
+  void drop(std::uint64_t id, const std::string& why);
+  // The oldest connection without a hello, or 0.
+  std::uint64_t oldest_silent() const;
+  void check_queues();
+  std::uint64_t max_queued_bytes() const;
   kj::Promise<void> pump_loop();
   kj::Promise<void> track_send(std::uint64_t id, kj::Promise<void> sent);
   DaemonStatus status_now();
@@ -117,6 +150,7 @@ class Server {
   SceneInfo scene_;
   std::unique_ptr<PublishedReader> reader_;
   std::uint64_t receive_limit_words_ = 0;
+  std::uint64_t snapshot_bytes_ = 0;         // of the loaded scene, about
   int listen_fd_ = -1;
   kj::Own<kj::UnixEventPort::FdObserver> listen_observer_;
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;

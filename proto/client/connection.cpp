@@ -65,7 +65,17 @@ Connection::Connection(kj::AsyncIoContext& io, const std::string& socket_path, c
   req.setMajor(major);
   req.setMinor(minor);
   req.setClient(client_name);
-  auto reply = guarded(("hello to " + socket_path).c_str(), [&] { return req.send().wait(io.waitScope); });
+  // Something listens (connect worked): a connection closed before the
+  // answer is the daemon's doing (a limit, see its log), not "no daemon".
+  auto reply = [&] {
+    try {
+      return req.send().wait(io.waitScope);
+    } catch (const kj::Exception& e) {
+      throw ClientError(ClientError::Kind::failed,
+                        "the daemon on " + socket_path + " closed the connection before answering hello (" +
+                            e.getDescription().cStr() + "; its log says why)");
+    }
+  }();
   server_ = reply.getServer();
   server_minor_ = reply.getMinor();
   if (!reply.getAccepted()) {
