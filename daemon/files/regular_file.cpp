@@ -10,28 +10,15 @@
 
 #include <fmt/format.h>
 
+#include "files/unique_fd.hpp"
+
 namespace sculpt::files {
 namespace {
 
-class Fd {
- public:
-  explicit Fd(int fd) : fd_(fd) {}
-  Fd(Fd&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  ~Fd() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
-
 // Opens without waiting (a FIFO with no writer) and checks what it is.
-Fd open_regular(const std::filesystem::path& file, std::uint64_t max_bytes, std::uint64_t& size) {
+UniqueFd open_regular(const std::filesystem::path& file, std::uint64_t max_bytes, std::uint64_t& size) {
   if (file.empty()) throw FileError(file, "the path is empty");
-  Fd fd(::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
+  UniqueFd fd(::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY));
   if (fd.get() < 0) {
     const int e = errno;
     if (e == ENOENT) throw FileError(file, "no such file");
@@ -77,7 +64,7 @@ std::uint64_t check_regular(const std::filesystem::path& file, std::uint64_t max
 
 std::string read_regular(const std::filesystem::path& file, std::uint64_t max_bytes) {
   std::uint64_t size = 0;
-  const Fd fd = open_regular(file, max_bytes, size);
+  const UniqueFd fd = open_regular(file, max_bytes, size);
   // One byte more than fstat said: the read that finds the end. A file that
   // grows meanwhile is read on, up to the limit.
   std::string out(static_cast<std::size_t>(size) + 1, '\0');

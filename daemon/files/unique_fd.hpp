@@ -5,7 +5,7 @@
 
 #include <utility>
 
-namespace sculpt::uinput {
+namespace sculpt::files {
 
 class UniqueFd {
  public:
@@ -36,4 +36,4 @@ class UniqueFd {
   int fd_ = -1;
 };
 
-}  // namespace sculpt::uinput
+}  // namespace sculpt::files

@@ -46,7 +46,7 @@ struct DeviceManager::Impl {
   bool use_udev = false;
   udev* udev_ctx = nullptr;
   udev_monitor* monitor = nullptr;
-  uinput::UniqueFd inotify;
+  files::UniqueFd inotify;
   int dir_watch = -1;     // dev_dir
   int parent_watch = -1;  // its parent, until dev_dir exists
 
@@ -161,7 +161,7 @@ struct DeviceManager::Impl {
   }
 
   void start_inotify() {
-    inotify = uinput::UniqueFd(::inotify_init1(IN_NONBLOCK | IN_CLOEXEC));
+    inotify = files::UniqueFd(::inotify_init1(IN_NONBLOCK | IN_CLOEXEC));
     if (!inotify.valid()) throw std::system_error(errno, std::generic_category(), "inotify_init1");
     watch_dir();
     if (dir_watch >= 0) scan_dir();

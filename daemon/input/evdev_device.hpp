@@ -11,7 +11,7 @@
 
 #include "input/device_info.hpp"
 #include "input/input_message.hpp"
-#include "uinput/unique_fd.hpp"
+#include "files/unique_fd.hpp"
 
 struct libevdev;
 
@@ -44,7 +44,7 @@ class EvdevDevice {
   void handle(const ::input_event& ev, bool resync, const std::function<void(const InputFrame&)>& emit);
   void flush(const std::function<void(const InputFrame&)>& emit, bool partial);
 
-  uinput::UniqueFd fd_;
+  files::UniqueFd fd_;
   libevdev* dev_ = nullptr;
   DeviceInfo info_;
   InputFrame frame_{};

@@ -18,6 +18,8 @@
 
 #include <fmt/format.h>
 
+#include "files/unique_fd.hpp"
+
 #if defined(__SANITIZE_ADDRESS__)
 #define SCULPT_ASAN 1
 #elif defined(__has_feature)
@@ -28,20 +30,6 @@
 
 namespace sculpt::scene {
 namespace {
-
-class Fd {
- public:
-  explicit Fd(int fd = -1) : fd_(fd) {}
-  Fd(const Fd&) = delete;
-  Fd& operator=(const Fd&) = delete;
-  ~Fd() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
 
 [[noreturn]] void fail_errno(const char* what) {
   throw std::system_error(errno, std::generic_category(), what);
@@ -107,14 +95,14 @@ bool write_all(int fd, const void* data, std::size_t size) {
 
 std::variant<std::vector<std::byte>, ChildFailure> run_in_child(
     const std::function<std::vector<std::byte>()>& work, const ChildLimits& limits) {
-  Fd out(::memfd_create("sculpt-import", MFD_CLOEXEC));
+  files::UniqueFd out(::memfd_create("sculpt-import", MFD_CLOEXEC));
   if (out.get() < 0) fail_errno("memfd_create");
 
   const pid_t pid = ::fork();
   if (pid < 0) fail_errno("fork");
   if (pid == 0) child_main(out.get(), work, limits);
 
-  Fd pidfd(static_cast<int>(::syscall(SYS_pidfd_open, pid, 0)));
+  files::UniqueFd pidfd(static_cast<int>(::syscall(SYS_pidfd_open, pid, 0)));
   const auto deadline = std::chrono::steady_clock::now() + limits.timeout;
   bool timed_out = false;
   if (pidfd.get() >= 0) {

@@ -25,9 +25,11 @@
 #include <variant>
 #include <vector>
 
-#include "uinput/unique_fd.hpp"
+#include "files/unique_fd.hpp"
 
 namespace sculpt::uinput {
+
+using files::UniqueFd;
 
 struct AxisSpec {
   std::uint16_t code;       // ABS_X, ABS_RY, ...

@@ -1,11 +1,11 @@
-// Owns a file descriptor: the production one (daemon/uinput), under the name
+// Owns a file descriptor: the production one (daemon/files), under the name
 // the tests have always used.
 #pragma once
 
-#include "uinput/unique_fd.hpp"
+#include "files/unique_fd.hpp"
 
 namespace sculpt::support {
 
-using uinput::UniqueFd;
+using files::UniqueFd;
 
 }  // namespace sculpt::support

@@ -1,6 +1,4 @@
 // Runs the real sculptctl binary (meson passes its path in SCULPTCTL).
-#include <sys/wait.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -8,43 +6,22 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "support/command.hpp"
 #include "test_support.hpp"
 
 namespace {
 
 using sculpt::scene::testing::data_dir;
-using sculpt::scene::testing::read_file;
-using sculpt::scene::testing::TempDir;
 
-struct CtlRun {
-  int status = -1;
-  std::string out, err;
-};
+using CtlRun = sculpt::support::CommandRun;
 
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-CtlRun sculptctl(const std::string& args) {
+CtlRun sculptctl(const std::vector<std::string>& args) {
   const char* exe = std::getenv("SCULPTCTL");
   if (!exe) {
     ADD_FAILURE() << "SCULPTCTL is not set (run through meson test)";
     return {};
   }
-  TempDir dir;
-  const auto err = dir / "stderr";
-  const std::string cmd = quoted(exe) + " " + args + " 2>" + quoted(err.string());
-  CtlRun r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.err = read_file(err);
-  return r;
+  return sculpt::support::run_command(exe, args);
 }
 
 std::vector<nlohmann::json> json_lines(const std::string& out) {
@@ -57,7 +34,7 @@ std::vector<nlohmann::json> json_lines(const std::string& out) {
 
 TEST(Inspect, JsonForAMeshHasEveryField) {
   const auto file = (data_dir() / "meshes" / "icosphere_binary.stl").string();
-  const CtlRun r = sculptctl("inspect --json " + quoted(file));
+  const CtlRun r = sculptctl({"inspect", "--json", file});
   ASSERT_EQ(r.status, 0) << r.err;
   const auto lines = json_lines(r.out);
   ASSERT_EQ(lines.size(), 1u);
@@ -81,7 +58,7 @@ TEST(Inspect, JsonForAMeshHasEveryField) {
 }
 
 TEST(Inspect, JsonForASceneHasOneObjectPerMesh) {
-  const CtlRun r = sculptctl("inspect --json builtin:default");
+  const CtlRun r = sculptctl({"inspect", "--json", "builtin:default"});
   ASSERT_EQ(r.status, 0) << r.err;
   const auto lines = json_lines(r.out);
   ASSERT_EQ(lines.size(), 3u);
@@ -91,17 +68,17 @@ TEST(Inspect, JsonForASceneHasOneObjectPerMesh) {
 }
 
 TEST(Inspect, WarningsAreListed) {
-  const CtlRun r = sculptctl("inspect --json " + quoted((data_dir() / "meshes" / "open_grid.obj").string()));
+  const CtlRun r = sculptctl({"inspect", "--json", (data_dir() / "meshes" / "open_grid.obj").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   const auto j = json_lines(r.out).at(0);
   ASSERT_EQ(j["warnings"].size(), 1u);
   EXPECT_EQ(j["warnings"][0], "open surface: 16 boundary edges (their springs have one side only)");
-  const CtlRun text = sculptctl("inspect " + quoted((data_dir() / "meshes" / "open_grid.obj").string()));
+  const CtlRun text = sculptctl({"inspect", (data_dir() / "meshes" / "open_grid.obj").string()});
   EXPECT_NE(text.out.find("warning: open surface: 16 boundary edges"), std::string::npos) << text.out;
 }
 
 TEST(Inspect, TextReportHasCountsMaterialAndSubsteps) {
-  const CtlRun r = sculptctl("inspect " + quoted((data_dir() / "scenes" / "full.toml").string()));
+  const CtlRun r = sculptctl({"inspect", (data_dir() / "scenes" / "full.toml").string()});
   ASSERT_EQ(r.status, 0) << r.err;
   for (const char* s : {"4 meshes, 2 tools, 500 Hz, substeps 4", "tool finger: capsule radius 0.01 m",
                         "vertices 162  edges 480  triangles 320", "material putty: linear model",
@@ -113,7 +90,7 @@ TEST(Inspect, TextReportHasCountsMaterialAndSubsteps) {
 TEST(Inspect, BadInputExitsNonZeroWithOneLine) {
   for (const std::string f : {"bad/nan.obj", "bad/unknown_format.xyz", "bad/empty.stl", "scenes/bad/typo_key.toml",
                               "scenes/bad/wrong_type.toml", "scenes/bad/missing_mesh.toml", "no/such/file.stl"}) {
-    const CtlRun r = sculptctl("inspect --json " + quoted((data_dir() / f).string()));
+    const CtlRun r = sculptctl({"inspect", "--json", (data_dir() / f).string()});
     EXPECT_NE(r.status, 0) << f;
     EXPECT_TRUE(r.out.empty()) << f;
     ASSERT_FALSE(r.err.empty()) << f;
@@ -123,7 +100,7 @@ TEST(Inspect, BadInputExitsNonZeroWithOneLine) {
 }
 
 TEST(Inspect, ListsFormats) {
-  const CtlRun r = sculptctl("inspect --formats");
+  const CtlRun r = sculptctl({"inspect", "--formats"});
   ASSERT_EQ(r.status, 0);
   for (const char* e : {"\nobj\n", "\nply\n", "\nstl\n", "\nglb\n", "\noff\n"}) {
     EXPECT_NE(("\n" + r.out).find(e), std::string::npos) << e;
