@@ -13,10 +13,12 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <system_error>
-#include <map>
+#include <utility>
+
 #include <linux/input.h>
 
 #include <kj/async-io.h>
@@ -156,6 +158,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
 
   std::uint64_t current_tick() const { return sim_ ? sim_->ticks() : pending_start_tick_; }
+  double simulated_s() const {
+    return simulated_before_s_ + static_cast<double>(current_tick() - segment_first_tick_) / rate_;
+  }
   // The running sim thread's stats (zeros in the moment a swap's new thread
   // could not start yet).
   const loop::LoopStats& loop_stats() const { return sim_ ? sim_->stats() : idle_stats_; }
@@ -242,7 +247,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       log::write(static_cast<log::Level>(std::clamp(priority, 3, 7)), line);
     };
     server_ = std::make_unique<server::Server>(io_, *this, sopts);
-    server_->set_scene(scene_info_, *published_);
+    (void)server_->set_scene(std::move(scene_info_), *published_, std::move(reader_));
     tell_server_devices();
     listen_ = std::make_unique<server::ListenSocket>(server::ListenSocket::open(client::resolve_socket_path(cfg_.socket)));
     socket_path_ = listen_->path();
@@ -326,8 +331,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     world_ = std::move(p.world);
     stages_ = std::move(p.stages);
     scene_info_ = std::move(p.info);
-    published_ = std::make_unique<server::PublishedState>(*world_, rate_, first_tick);
-    stages_->set_published(published_.get());
+    reader_ = std::move(p.reader);
+    published_ = std::move(p.published);
+    published_->start_at(first_tick);
   }
 
   void start_sim(std::uint64_t first_tick, bool paused) {
@@ -343,7 +349,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), loop::max_wake_early_ns(rate_));
     so.wake_early_needs_fifo = !cfg_.wake_early_us.has_value();
     so.first_tick = first_tick;
-    if (cfg_.duration_s > 0) so.max_ticks = static_cast<std::uint64_t>(std::llround(cfg_.duration_s * rate_));
+    // --duration counts simulated seconds across scene swaps (the rate may change).
+    if (cfg_.duration_s > 0)
+      so.max_ticks = first_tick + static_cast<std::uint64_t>(
+                                      std::llround(std::max(0.0, cfg_.duration_s - simulated_before_s_) * rate_));
     auto sim = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, so);
     if (paused) sim->request_pause(true);
     const loop::RealtimeResult rt = sim->start();
@@ -372,6 +381,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   // devices, viewers get a new snapshot. Nothing of this can fail but the
   // new thread's start, which is retried (restart_sim_if_missing).
   void swap_in(Simulation next, const char* what) {
+    const auto began = std::chrono::steady_clock::now();
     const bool paused = sim_ ? sim_->paused() : pending_start_paused_;
     if (sim_) sim_->stop();
     const std::uint64_t tick = sim_ ? sim_->ticks() : pending_start_tick_;
@@ -381,6 +391,9 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     std::unique_ptr<SculptStages> old = std::move(stages_);
     std::unique_ptr<server::PublishedState> old_published = std::move(published_);
     std::unique_ptr<sim::World<float>> old_world = std::move(world_);
+    scene::Scene old_scene = std::move(scene_);
+    simulated_before_s_ += static_cast<double>(tick - segment_first_tick_) / rate_;
+    segment_first_tick_ = tick;
     install(std::move(next), tick);  // the new published state continues from the tick the old one reached
     // Devices first (as attach messages due now, bound to the new scene's
     // tools, live or recorded alike), then what was queued.
@@ -394,18 +407,35 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
           push(input::InputMessage::attach(slot, bind_recorded(slot, recorded[slot])), "attach");
     }
     while (auto m = old->ring().try_pop()) push(*m, "queued");
-    server_->set_scene(scene_info_, *published_);
+    server::Server::Replaced shown = server_->set_scene(std::move(scene_info_), *published_, std::move(reader_));
     tell_server_devices();
-    old.reset();
-    old_published.reset();
-    old_world.reset();
+    dispose(std::move(old_scene), std::move(shown), std::move(old), std::move(old_published), std::move(old_world));
     blowups_.reset(mesh_names());
     pending_start_tick_ = tick;
     pending_start_paused_ = paused;
     start_failure_logged_ = false;
     restart_sim_if_missing();
-    log::notice("{}: scene {} ({} meshes, {} vertices) from tick {}", what, scene_.file.string(), scene_.meshes.size(),
-                vertices_of(scene_), tick);
+    log::notice("{}: scene {} ({} meshes, {} vertices) from tick {} (the swap held the io loop {:.1f} ms)", what,
+                scene_.file.string(), scene_.meshes.size(), vertices_of(scene_), tick,
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - began).count());
+  }
+
+  // Frees a replaced simulation off the io loop (a big world takes a while
+  // to free, longer still under ASan's quarantine): on the disposer thread,
+  // or here when that is still busy with the last one.
+  void dispose(scene::Scene scene, server::Server::Replaced shown, std::unique_ptr<SculptStages> stages,
+               std::unique_ptr<server::PublishedState> published, std::unique_ptr<sim::World<float>> world) {
+    struct Old {
+      scene::Scene scene;
+      server::Server::Replaced shown;
+      std::unique_ptr<SculptStages> stages;
+      std::unique_ptr<server::PublishedState> published;
+      std::unique_ptr<sim::World<float>> world;
+    };
+    auto old = std::make_shared<Old>(
+        Old{std::move(scene), std::move(shown), std::move(stages), std::move(published), std::move(world)});
+    if (disposer_.busy()) return;  // freed right here, as `old` goes
+    tasks_->add(disposer_.run([old = std::move(old)]() mutable { old.reset(); }));
   }
 
   // Builds `build()`'s scene on the worker thread, then swaps it in on the
@@ -484,7 +514,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     d.paused = paused_now();
     d.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
     d.scene = scene_.file.string();
-    d.sim_time_ns = static_cast<std::uint64_t>(std::llround(static_cast<double>(current_tick()) * 1e9 / rate_));
+    d.sim_time_ns = static_cast<std::uint64_t>(std::llround(simulated_s() * 1e9));
     return d;
   }
   std::vector<server::DeviceEntry> devices() override {
@@ -504,8 +534,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     return load_off_loop([path] { return scene::load_scene(path); }, "load scene");
   }
   kj::Promise<std::string> reset() override {
-    // The scene as loaded, again (meshes keep their loaded shapes in it).
-    return load_off_loop([again = scene_] { return again; }, "reset");
+    // The scene as loaded, again (meshes keep their loaded shapes in it),
+    // copied on the worker: only a swap changes scene_, and none runs while
+    // a load does.
+    return load_off_loop([this] { return scene_; }, "reset");
   }
   std::string set_paused(bool paused) override {
     if (!sim_) return "the sim thread is not running (it could not be started; see the log)";
@@ -640,11 +672,36 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
                        haptics_ ? haptics_->stats().ff.uploads.load() : 0);
   }
 
+  // SIGHUP: the config file is read on its own thread (the io loop never
+  // waits on a file), then applied here. A SIGHUP during a reload reads the
+  // file again once that one is done.
   void reload() {
+    if (config_reader_.busy()) {
+      reload_again_ = true;
+      return;
+    }
+    struct Read {
+      std::optional<DaemonConfig> config;
+      std::string error;
+    };
+    auto read = std::make_shared<Read>();
+    tasks_->add(config_reader_.run([read, path = opts_.config_path, optional = opts_.config_optional] {
+      try {
+        read->config.emplace(path.empty() ? DaemonConfig{} : load_config(path, optional));
+      } catch (const std::exception& e) {
+        read->error = e.what();
+      }
+    }).then([this, read] {
+      if (!stopping_) apply_config(std::move(read->config), read->error);
+      if (std::exchange(reload_again_, false) && !stopping_) reload();
+    }));
+  }
+
+  void apply_config(std::optional<DaemonConfig> read, const std::string& read_error) {
     const std::string what = opts_.config_path.empty() ? std::string("(no config file)") : opts_.config_path.string();
     try {
-      DaemonConfig next =
-          opts_.config_path.empty() ? DaemonConfig{} : load_config(opts_.config_path, opts_.config_optional);
+      if (!read) throw std::runtime_error(read_error);
+      DaemonConfig next = std::move(*read);
       if (opts_.overrides) opts_.overrides(next);
       input::MappingConfig mapping = input::parse_mapping(next.mapping_table, next.file.empty() ? "config" : next.file);
       // What needs a restart is reported, not applied: the sculpt is kept.
@@ -740,11 +797,19 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
   loop::LoopStats idle_stats_;             // loop_stats() while sim_ is missing
   std::uint64_t pending_start_tick_ = 0;   // where a sim thread that could not start will start
+  // Simulated time: the scenes before this one ran this long, and this one
+  // from this tick on, at rate_.
+  double simulated_before_s_ = 0;
+  std::uint64_t segment_first_tick_ = 0;
   bool pending_start_paused_ = false;
   bool start_failure_logged_ = false;
-  server::SceneInfo scene_info_;           // of scene_, for the server
+  server::SceneInfo scene_info_;           // of scene_, built off the loop, until the server takes it
+  std::unique_ptr<server::PublishedReader> reader_;  // likewise
   BlowupLog blowups_;
   Worker worker_;                          // loads scenes off the io loop
+  Worker disposer_;                        // frees what a swap replaced
+  Worker config_reader_;                   // reads the config on SIGHUP
+  bool reload_again_ = false;              // a SIGHUP came during a reload
   std::unique_ptr<server::Server> server_;
   std::unique_ptr<server::ListenSocket> listen_;
   std::string socket_path_;

@@ -19,6 +19,9 @@ Simulation build_simulation(scene::Scene scene, const SimulationSettings& settin
   limits.min_scale = settings.min_scale;
   limits.max_scale = settings.max_scale;
   s.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, s.rate), board, settings.ring_capacity);
+  s.published = std::make_unique<server::PublishedState>(*s.world, s.rate);
+  s.stages->set_published(s.published.get());
+  s.reader = std::make_unique<server::PublishedReader>(*s.published);
   s.info = scene_info(scene, s.rate);
   s.scene = std::move(scene);
   return s;

@@ -15,6 +15,7 @@
 #include "main/pipeline.hpp"
 #include "scene/scene.hpp"
 #include "server/control.hpp"
+#include "server/published_state.hpp"
 #include "sim/world.hpp"
 
 namespace sculpt::daemon {
@@ -35,6 +36,8 @@ struct Simulation {
   std::size_t tools = 0;
   std::unique_ptr<sim::World<float>> world;
   std::unique_ptr<SculptStages> stages;
+  std::unique_ptr<server::PublishedState> published;  // ticks renumbered by start_at() at the swap
+  std::unique_ptr<server::PublishedReader> reader;    // the server's view of it, filled
   server::SceneInfo info;          // what viewers get told about the scene
 };
 

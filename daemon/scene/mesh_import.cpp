@@ -142,19 +142,21 @@ LoadedMesh load_mesh(const fs::path& file, const ImportOptions& options) {
   const fs::file_status status = fs::status(file, ec);
   if (!fs::exists(status)) throw LoadError(file, "no such file");
   if (fs::is_directory(status)) throw LoadError(file, "is a directory, not a mesh file");
+  // A FIFO or a device would block or never end in the importer: regular
+  // files only (the importer opens it again itself, in its child).
+  std::uint64_t size = 0;
+  try {
+    size = files::check_regular(file, kMaxMeshBytes);
+  } catch (const files::FileError& e) {
+    throw LoadError(file, e.reason());
+  }
   const std::string ext = lower_extension(file);
   if (!assimp_reads_extension(ext)) {
     throw LoadError(file, fmt::format("unknown mesh format '{}' (readable: obj, ply, stl, gltf, glb, off, "
                                       "fbx, dae, 3ds and more; `sculptctl inspect --formats` lists all)",
                                       ext.empty() ? std::string("no extension") : "." + ext));
   }
-  // A FIFO or a device would block or never end in the importer: regular
-  // files only (the importer opens it again itself, in its child).
-  try {
-    if (files::check_regular(file, kMaxMeshBytes) == 0) throw LoadError(file, "the file is empty");
-  } catch (const files::FileError& e) {
-    throw LoadError(file, e.reason());
-  }
+  if (size == 0) throw LoadError(file, "the file is empty");
   return finish_import(import_raw(file, options, [&] { return read_with_assimp(file); }), file, options);
 }
 

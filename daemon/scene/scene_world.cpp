@@ -38,8 +38,10 @@ std::vector<std::string> probe_stability(sim::World<float>& world, const Scene& 
   // rounding error by orders of magnitude every few ticks.
   const int ticks = static_cast<int>(std::clamp(world.settings().rate_hz / 10.0, 10.0, 200.0));
   std::vector<std::uint64_t> before(world.body_count());
+  std::vector<int> substeps(world.body_count());  // the guard raises them as it restores
   for (std::size_t b = 0; b < world.body_count(); ++b) {
     before[b] = world.body(b).blowups;
+    substeps[b] = world.substeps(b);
     world.wake_all(b);
     // A nudge of a thousandth of the mesh's size: an exact rest shape has no
     // forces to grow.
@@ -57,11 +59,13 @@ std::vector<std::string> probe_stability(sim::World<float>& world, const Scene& 
     if (n == 0) continue;
     const SceneMesh& m = scene.meshes[b];
     const sim::Material& mat = scene.material_of(m);
+    const auto& g = scene.settings.gravity;
+    const double gravity = mat.gravity ? std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) : 0;
     warnings[b] = fmt::format(
         "mesh '{}' blew up {} time(s) in {} ticks with no tool touching it (material '{}': stiffness {:g}, mass "
-        "{:g}, {} substeps{}): the simulation will restore it again and again; lower the stiffness, raise the "
-        "mass, or let substeps be \"auto\"",
-        m.name, n, ticks, m.material, mat.stiffness, mat.mass, world.substeps(b),
+        "{:g}, gravity {:g} m/s^2, {} substeps{}): the simulation will restore it again and again; lower the "
+        "stiffness or the gravity, raise the mass, or let substeps be \"auto\"",
+        m.name, n, ticks, m.material, mat.stiffness, mat.mass, gravity, substeps[b],
         scene.settings.substeps > 0 ? " fixed" : "");
   }
   return warnings;

@@ -29,7 +29,12 @@ kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> CheckedMessageStream::tryRead
   capnp::ReaderOptions mine;
   mine.traversalLimitInWords = limits_.max_bytes / sizeof(capnp::word);
   mine.nestingLimit = limits_.nesting;
-  return inner_.tryReadMessage(fds, mine, scratch)
+  // Through the timer, i.e. through epoll: a client whose calls are already
+  // buffered (pipelined by the thousand) would otherwise have them all
+  // handled, each answer a snapshot, before the event loop looks at any
+  // other client's socket again (kj polls for I/O only when no event is ready).
+  return timer_.afterDelay(0 * kj::NANOSECONDS)
+      .then([this, fds, mine, scratch] { return inner_.tryReadMessage(fds, mine, scratch); })
       .then(
           [this](kj::Maybe<capnp::MessageReaderAndFds>&& got) -> kj::Maybe<capnp::MessageReaderAndFds> {
             KJ_IF_MAYBE(m, got) {

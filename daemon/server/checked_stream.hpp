@@ -5,7 +5,9 @@
 // and so is the number of capabilities a message carries (each one the RPC
 // system imports costs memory: a 16 MB hello holding a million of them took
 // a gigabyte). A message over a limit ends the connection; `violation` says
-// which limit, for the server's log line.
+// which limit, for the server's log line. Each message is read after a pass
+// through the event loop's I/O poll, so one client's pipelined calls never
+// hold up the others.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +15,7 @@
 
 #include <capnp/serialize-async.h>
 #include <kj/async-io.h>
+#include <kj/timer.h>
 
 namespace sculpt::server {
 
@@ -24,8 +27,8 @@ struct MessageLimits {
 
 class CheckedMessageStream final : public capnp::MessageStream {
  public:
-  CheckedMessageStream(kj::AsyncIoStream& stream, MessageLimits limits, std::string& violation)
-      : inner_(stream), limits_(limits), violation_(violation) {}
+  CheckedMessageStream(kj::AsyncIoStream& stream, kj::Timer& timer, MessageLimits limits, std::string& violation)
+      : inner_(stream), timer_(timer), limits_(limits), violation_(violation) {}
 
   kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> tryReadMessage(kj::ArrayPtr<kj::AutoCloseFd> fds,
                                                                     capnp::ReaderOptions options,
@@ -42,6 +45,7 @@ class CheckedMessageStream final : public capnp::MessageStream {
 
  private:
   capnp::AsyncIoMessageStream inner_;
+  kj::Timer& timer_;
   MessageLimits limits_;
   std::string& violation_;
 };

@@ -25,6 +25,12 @@ PublishedState::PublishedState(const sim::World<float>& world, double rate_hz, s
   header_.store(h);
 }
 
+void PublishedState::start_at(std::uint64_t first_tick) {
+  PublishedHeader h = header_.load();
+  h.tick = first_tick;
+  header_.store(h);
+}
+
 void PublishedState::write_block(Body& b, const sim::Body<float>& body, std::uint32_t block) {
   const std::uint32_t begin = block * kBlock;
   const std::uint32_t end = std::min(b.layout.n, begin + kBlock);

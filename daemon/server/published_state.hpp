@@ -51,6 +51,10 @@ class PublishedState {
   // the world's current positions in, so a reader starts from the truth.
   // first_tick: the sim thread's tick number for the world's tick 0.
   PublishedState(const sim::World<float>& world, double rate_hz, std::uint64_t first_tick = 0);
+  // Renumbers the ticks before the sim thread starts: the world's tick 0 is
+  // `first_tick` (a scene swapped in continues the timeline; built ahead,
+  // off the io thread, before that tick is known).
+  void start_at(std::uint64_t first_tick);
   PublishedState(const PublishedState&) = delete;
   PublishedState& operator=(const PublishedState&) = delete;
 

@@ -1,6 +1,7 @@
 #include "server/server.hpp"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -18,6 +19,9 @@
 
 namespace sculpt::server {
 namespace {
+
+// A connection is not taken for a silent one before it had this long to say hello.
+constexpr std::int64_t kHelloGraceNs = 1'000'000'000;
 
 bool same_tools(const PublishedHeader& a, const PublishedHeader& b) {
   if (a.tool_count != b.tool_count) return false;
@@ -77,41 +81,49 @@ class SessionImpl final : public proto::Session::Server {
   SessionImpl(server::Server& server, std::uint64_t client) : server_(server), client_(client) {}
 
   kj::Promise<void> status(StatusContext context) override {
+    if (!server_.admit(client_)) return closing();
     server_.fill_status(context.getResults().initStats());
     return kj::READY_NOW;
   }
   kj::Promise<void> devices(DevicesContext context) override {
+    if (!server_.admit(client_)) return closing();
     const auto list = server_.control().devices();
     fill_devices(context.getResults().initDevices(static_cast<unsigned>(list.size())), list);
     return kj::READY_NOW;
   }
   kj::Promise<void> snapshot(SnapshotContext context) override {
+    if (!server_.admit(client_)) return closing();
     server_.fill_snapshot_now(context.getResults().initSnapshot());
     return kj::READY_NOW;
   }
   kj::Promise<void> subscribe(SubscribeContext context) override {
+    if (!server_.admit(client_)) return closing();
     auto p = context.getParams();
     const std::uint64_t id = server_.add_stream(p.getViewer(), p.getToleranceM(), p.getMaxFps(), client_);
     context.getResults().setSubscription(kj::heap<SubscriptionImpl>(server_, id));
     return kj::READY_NOW;
   }
   kj::Promise<void> loadScene(LoadSceneContext context) override {
+    if (!server_.admit(client_)) return closing();
     const std::string path = context.getParams().getPath();
     return server_.control().load_scene(path).then([context](std::string error) mutable {
       fill(context.getResults().initResult(), error);
     });
   }
   kj::Promise<void> reset(ResetContext context) override {
+    if (!server_.admit(client_)) return closing();
     return server_.control().reset().then([context](std::string error) mutable {
       fill(context.getResults().initResult(), error);
     });
   }
   kj::Promise<void> pause(PauseContext context) override {
+    if (!server_.admit(client_)) return closing();
     const std::string error = server_.control().set_paused(true);
     if (!error.empty()) return result(context.getResults().initResult(), error);
     return answer_when_paused(context.getResults().initResult(), true);
   }
   kj::Promise<void> resume(ResumeContext context) override {
+    if (!server_.admit(client_)) return closing();
     const std::string error = server_.control().set_paused(false);
     if (!error.empty()) return result(context.getResults().initResult(), error);
     return answer_when_paused(context.getResults().initResult(), false);
@@ -127,6 +139,10 @@ class SessionImpl final : public proto::Session::Server {
         r.setError(paused ? "the simulation thread did not pause within 2 s (stalled or finished)"
                           : "the simulation thread did not resume within 2 s (stalled or finished)");
     });
+  }
+  // A client over a limit gets no more answers: it is being disconnected.
+  static kj::Promise<void> closing() {
+    return kj::Promise<void>(KJ_EXCEPTION(DISCONNECTED, "over a limit (see the daemon's log): the connection is closing"));
   }
   static void fill(proto::Result::Builder r, const std::string& error) {
     r.setOk(error.empty());
@@ -191,6 +207,8 @@ struct Server::Client {
   std::string refusal;   // served only to be told this (the client table was full)
   std::string violation; // the limit its messages broke (checked_stream.hpp), for the log
   std::int64_t connected_ns = 0;
+  bool closing = false;  // over a limit: dropped at the next turn of the loop
+  int fd = -1;           // the socket (owned by `stream`), to see whether the peer is gone
   kj::Own<kj::AsyncIoStream> stream;
   kj::Own<CheckedMessageStream> messages;
   kj::Own<capnp::TwoPartyVatNetwork> network;
@@ -225,15 +243,18 @@ void Server::close() {
   reader_.reset();
 }
 
-void Server::set_scene(SceneInfo info, const PublishedState& state) {
+Server::Replaced Server::set_scene(SceneInfo info, const PublishedState& state,
+                                   std::unique_ptr<PublishedReader> reader) {
+  Replaced old{std::move(scene_), std::move(reader_)};
   scene_ = std::move(info);
-  reader_ = std::make_unique<PublishedReader>(state);
+  reader_ = reader ? std::move(reader) : std::make_unique<PublishedReader>(state);
   std::uint64_t bytes = 4096;
   for (const auto& m : scene_.meshes) bytes += m.rest.size() * 8 + m.triangles.size() * 4 + m.name.size() + 256;
   receive_limit_words_ = std::max<std::uint64_t>(options_.traversal_limit_words, bytes / 8 * 2);
   snapshot_bytes_ = bytes;
   scratch_.assign(reader_->body_count(), {});
   for (auto& [id, s] : streams_) s->needs_snapshot = true;
+  return old;
 }
 
 void Server::set_tool_devices(const std::vector<std::int32_t>& slot_of_tool) {
@@ -251,7 +272,11 @@ void Server::listen(int fd) {
 }
 
 kj::Promise<void> Server::accept_loop() {
-  for (;;) {
+  // A few connections per turn of the event loop: the disconnects of those
+  // that closed at once (a burst of connect/close) free their places in
+  // between.
+  for (int batch = 0;; ++batch) {
+    if (batch == 8) return kj::evalLater([this] { return accept_loop(); });
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
     if (fd < 0) {
       if (errno == EINTR || errno == ECONNABORTED) continue;
@@ -265,10 +290,11 @@ kj::Promise<void> Server::accept_loop() {
                            ? fmt::format("pid {} uid {} gid {}", cred.pid, cred.uid, cred.gid)
                            : std::string("peer unknown");
     std::string refusal;
+    if (clients_.size() >= options_.max_clients) sweep_closed();
     if (clients_.size() >= options_.max_clients) {
       // A connection that has said nothing yet makes room: silent or
       // half-open connections never lock the others out.
-      if (const std::uint64_t silent = oldest_silent(); silent != 0) {
+      if (const std::uint64_t silent = oldest_silent(loop::monotonic_ns() - kHelloGraceNs); silent != 0) {
         ++counters_.evicted;
         drop(silent, fmt::format("closed to make room for a new connection: it had said no hello, and {} clients "
                                  "are the limit (max_clients)",
@@ -292,18 +318,35 @@ kj::Promise<void> Server::accept_loop() {
       }
     }
     serve_client(io_.lowLevelProvider->wrapSocketFd(fd, kj::LowLevelAsyncIoProvider::TAKE_OWNERSHIP), kj::mv(peer),
-                 kj::mv(refusal));
+                 kj::mv(refusal), fd);
   }
   return listen_observer_->whenBecomesReadable().then([this] { return accept_loop(); });
 }
 
 void Server::serve(kj::Own<kj::AsyncIoStream> stream, std::string peer) {
-  serve_client(kj::mv(stream), kj::mv(peer), {});
+  serve_client(kj::mv(stream), kj::mv(peer), {}, -1);
 }
 
-void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal) {
+void Server::sweep_closed() {
+  // Connections whose peer has already gone (a burst of connect and close)
+  // give their place back now, not when the event loop reads their EOF.
+  std::vector<std::uint64_t> gone;
+  for (const auto& [id, c] : clients_) {
+    if (c->hello || c->fd < 0) continue;
+    char byte;
+    const ssize_t n = ::recv(c->fd, &byte, 1, MSG_PEEK | MSG_DONTWAIT);
+    if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) gone.push_back(id);
+  }
+  for (const std::uint64_t id : gone) {
+    ++counters_.disconnected;
+    clients_.erase(id);
+  }
+}
+
+void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal, int fd) {
   auto c = std::make_unique<Client>();
   c->id = next_client_++;
+  c->fd = fd;
   c->peer = std::move(peer);
   c->refusal = std::move(refusal);
   c->connected_ns = loop::monotonic_ns();
@@ -312,7 +355,7 @@ void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, s
   incoming.max_bytes = options_.max_message_bytes;
   incoming.max_capabilities = options_.max_message_capabilities;
   incoming.nesting = options_.nesting_limit;
-  c->messages = kj::heap<CheckedMessageStream>(*c->stream, incoming, c->violation);
+  c->messages = kj::heap<CheckedMessageStream>(*c->stream, io_.provider->getTimer(), incoming, c->violation);
   // These options bound what the daemon SENDS (capnp refuses to send more
   // than it would receive); what a client sends is bounded by `incoming`.
   capnp::ReaderOptions limits;
@@ -372,14 +415,33 @@ void Server::drop(std::uint64_t id, const std::string& why) {
   for (auto& [sid, s] : streams_)
     if (s->client == id) s->dead = true;
   clients_.erase(it);  // closes the socket; its calls and their replies go with it
+  ::malloc_trim(0);     // a queue of replies can be hundreds of MB: give it back
 }
 
-std::uint64_t Server::oldest_silent() const {
+std::uint64_t Server::oldest_silent(std::int64_t connected_before_ns) const {
   std::uint64_t best = 0;
   std::int64_t at = 0;
   for (const auto& [id, c] : clients_)
-    if (!c->hello && (best == 0 || c->connected_ns < at)) best = id, at = c->connected_ns;
+    if (!c->hello && c->connected_ns < connected_before_ns && (best == 0 || c->connected_ns < at))
+      best = id, at = c->connected_ns;
   return best;
+}
+
+bool Server::admit(std::uint64_t client) {
+  const auto it = clients_.find(client);
+  if (it == clients_.end()) return false;
+  Client& c = *it->second;
+  if (c.closing) return false;
+  const std::size_t queued = c.network->getCurrentQueueSize();
+  const std::uint64_t limit = max_queued_bytes();
+  if (queued <= limit) return true;
+  // Its calls are answered the moment they are read, so a burst of them
+  // is checked call by call, not at the next pump.
+  c.closing = true;
+  const std::string why =
+      fmt::format("{} bytes of replies and frames it has not read (limit: {}, max_queued_bytes)", queued, limit);
+  tasks_->add(kj::evalLater([this, client, why] { drop(client, why); }));
+  return false;
 }
 
 std::uint64_t Server::max_queued_bytes() const { return std::max(options_.max_queued_bytes, 4 * snapshot_bytes_); }

@@ -7,7 +7,7 @@
 // the next one is computed from the latest state when it is ready).
 //
 //   server::Server srv(io, control);              // control: the daemon
-//   srv.set_scene(info, published);               // at start and after every scene swap
+//   srv.set_scene(info, published);               // at start and after every scene swap (returns the old ones)
 //   srv.listen(ListenSocket::open(path).release());
 #pragma once
 
@@ -35,8 +35,9 @@ namespace sculpt::server {
 struct ServerOptions {
   std::string name = "sculptd";
   // Connections at once. When the table is full a newcomer takes the place of
-  // the oldest connection that has not said hello; with none such, it is told
-  // why in an answer to its hello (refused: max_clients) and closed.
+  // the oldest connection that has said no hello for a second; with none
+  // such, it is told why in an answer to its hello (refused: max_clients) and
+  // closed.
   std::size_t max_clients = 64;
   std::size_t max_refusing = 8;              // refusals answered at once; beyond, closed unanswered
   kj::Duration hello_timeout = 5 * kj::SECONDS;  // a connection that says no hello within this is closed
@@ -87,8 +88,15 @@ class Server {
   Server& operator=(const Server&) = delete;
 
   // The scene being streamed; every viewer gets a new snapshot. `state`
-  // must stay alive until the next set_scene (or the server's end).
-  void set_scene(SceneInfo info, const PublishedState& state);
+  // must stay alive until the next set_scene (or the server's end). A
+  // reader of `state` may come built (a big scene's takes a while to fill:
+  // the daemon builds it off the io loop); what it replaced is returned, for
+  // the caller to free where it likes.
+  struct Replaced {
+    SceneInfo info;
+    std::unique_ptr<PublishedReader> reader;
+  };
+  Replaced set_scene(SceneInfo info, const PublishedState& state, std::unique_ptr<PublishedReader> reader = nullptr);
   // Which device slot drives each tool (-1: none), as devices come and go.
   void set_tool_devices(const std::vector<std::int32_t>& slot_of_tool);
   // Accepts clients on a listening socket (takes ownership of the fd).
@@ -117,6 +125,9 @@ class Server {
   void set_rate(std::uint64_t id, float fps);
   void set_tolerance(std::uint64_t id, float tolerance);
   void said_hello(std::uint64_t client, const std::string& name);
+  // Whether a call of this client is answered: false once it is over its
+  // queue limit (it is then disconnected at the next turn of the loop).
+  bool admit(std::uint64_t client);
   // The hello of a connection served only to be refused: its answer ("" for the others).
   std::string refusal(std::uint64_t client) const;
   // Resolves true once the sim thread reports `paused`, false after `tries` ms.
@@ -131,11 +142,14 @@ class Server {
   kj::Promise<void> accept_loop();
   // A connection, served (`refusal` non-empty: its hello is answered with
   // that and it is closed after).
-  void serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal);
+  void serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, std::string refusal, int fd);
+  // Forgets connections without a hello whose peer has closed already.
+  void sweep_closed();
   // Closes a client over a limit, with the log line.
   void drop(std::uint64_t id, const std::string& why);
-  // The oldest connection without a hello, or 0.
-  std::uint64_t oldest_silent() const;
+  // The oldest connection without a hello that connected before the given
+  // time (CLOCK_MONOTONIC ns), or 0.
+  std::uint64_t oldest_silent(std::int64_t connected_before_ns) const;
   void check_queues();
   std::uint64_t max_queued_bytes() const;
   kj::Promise<void> pump_loop();

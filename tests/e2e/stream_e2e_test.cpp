@@ -3,6 +3,8 @@
 // a stalled viewer slows nobody, bad clients are dropped while the others are
 // served, an old protocol is refused with a reason, an idle scene sends only
 // keep-alives, and every sculptctl command against a running daemon.
+// (fault_e2e_test.cpp: what a client, a file or a session must not be able to
+// do to the daemon.)
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -22,30 +24,11 @@
 
 #include "client/connection.hpp"
 #include "client/mesh_mirror.hpp"
-#include "sculptd_process.hpp"
+#include "daemon_fixture.hpp"
 #include "stream_viewer.hpp"
 
 namespace sculpt::e2e {
 namespace {
-
-std::string sessions(const std::string& name) { return std::string(SCULPT_SESSIONS_DIR) + "/" + name; }
-
-struct Daemon {
-  std::string socket;
-  std::unique_ptr<Sculptd> process;
-
-  Daemon(const std::string& name, std::vector<std::string> args) : socket(temp_path(name + ".sock")) {
-    ::unlink(socket.c_str());
-    args.insert(args.end(), {"--socket", socket});
-    process = std::make_unique<Sculptd>(args);
-    if (!process->wait_for_log("sculptd ready", 60s)) throw std::runtime_error("sculptd did not start:\n" + process->log());
-  }
-  ~Daemon() {
-    process->signal(SIGTERM);
-    process->wait_exit(30s);
-    ::unlink(socket.c_str());
-  }
-};
 
 // One control connection on the calling thread.
 struct Control {
@@ -128,6 +111,7 @@ void expect_viewers_match(Control& control, std::vector<std::unique_ptr<StreamVi
     }
     EXPECT_LE(err, v->tolerance() * (1 + 1e-5) + 1e-7) << "viewer with tolerance " << v->tolerance();
     EXPECT_FALSE(v->seen().error) << v->seen().error_text;
+    EXPECT_EQ(v->seen().not_increasing, 0u) << "sequence numbers must strictly increase per viewer";
   }
 }
 
@@ -159,14 +143,6 @@ TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTole
   std::uint64_t with_meshes = 0;
   for (auto& v : viewers) with_meshes += v->seen().frames_with_meshes;
   EXPECT_GT(with_meshes, 0u) << "the session sculpted nothing the viewers saw";
-}
-
-std::uint64_t rss_kb(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("VmRSS:", 0) == 0) return std::stoull(line.substr(6));
-  return 0;
 }
 
 TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
@@ -213,29 +189,6 @@ TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
   viewers[0]->resume_reading();
   expect_viewers_match(control, viewers);
   EXPECT_EQ(control.loop().waits_mid_tick, before.waits_mid_tick) << "the sim thread waited on something mid-tick";
-}
-
-int connect_raw(const std::string& path) {
-  sockaddr_un a{};
-  a.sun_family = AF_UNIX;
-  std::strncpy(a.sun_path, path.c_str(), sizeof a.sun_path - 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd >= 0 && ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
-bool write_all(int fd, const void* data, std::size_t n) {
-  const auto* p = static_cast<const char*>(data);
-  while (n > 0) {
-    const ssize_t w = ::send(fd, p, n, MSG_NOSIGNAL);
-    if (w <= 0) return false;
-    p += w;
-    n -= static_cast<std::size_t>(w);
-  }
-  return true;
 }
 
 TEST(Stream, GarbageTruncatedSilentAndRapidClientsLeaveTheOthersServed) {
@@ -297,10 +250,10 @@ TEST(Stream, GarbageTruncatedSilentAndRapidClientsLeaveTheOthersServed) {
 
   Control control(d.socket);
   EXPECT_EQ(control.viewers(), 1u);
-  // The silent client is still connected, and harmless.
+  // The silent client held a place for no longer than the hello timeout.
+  EXPECT_TRUE(d.process->wait_for_log("said no hello within 5 s (hello_timeout)", 20s)) << d.process->log();
   char byte;
-  EXPECT_EQ(::recv(silent, &byte, 1, MSG_DONTWAIT), -1);
-  EXPECT_EQ(errno, EAGAIN);
+  EXPECT_EQ(::recv(silent, &byte, 1, 0), 0) << "the daemon did not close the silent connection";
   ::close(silent);
   std::vector<std::unique_ptr<StreamViewer>> viewers;
   viewers.push_back(std::make_unique<StreamViewer>(d.socket, 1e-4f, 60.0f));
@@ -361,6 +314,7 @@ TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
   EXPECT_EQ(seen.frames, seen.keepalives);
   EXPECT_GE(seen.keepalives, 2u);   // about one a second
   EXPECT_LE(seen.keepalives, 6u);   // not one per tick, nor per maxFps period
+  EXPECT_EQ(seen.not_increasing, 0u) << "keep-alives at the same tick repeated a sequence number";
   ::unlink(idle.c_str());
 }
 
@@ -409,28 +363,6 @@ TEST(Stream, SocketActivationServesThePassedSocket) {
 }
 
 // --- sculptctl ------------------------------------------------------------------
-
-struct CtlRun {
-  int status = -1;
-  std::string out, err;
-};
-
-CtlRun sculptctl(const std::vector<std::string>& args) {
-  const std::string err_file = temp_path("ctl.err");
-  std::string cmd = SCULPTCTL_BIN;
-  for (const auto& a : args) cmd += " '" + a + "'";
-  cmd += " 2>" + err_file;
-  CtlRun r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.err = read_text(err_file);
-  ::unlink(err_file.c_str());
-  return r;
-}
 
 std::set<std::string> keys_of(const nlohmann::json& j) {
   std::set<std::string> k;

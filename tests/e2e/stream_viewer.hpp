@@ -28,6 +28,7 @@ class StreamViewer {
   struct Seen {
     std::uint64_t snapshots = 0, frames = 0, keepalives = 0, frames_with_meshes = 0;
     std::uint64_t sequence = 0;       // of the last snapshot or frame
+    std::uint64_t not_increasing = 0; // snapshots and frames whose sequence was not above the last one's
     std::uint64_t frame_bytes = 0;    // message payloads of the frames received
     bool error = false;
     std::string error_text;
@@ -103,6 +104,8 @@ class StreamViewer {
       std::lock_guard lock(v_.mutex_);
       try {
         v_.mirror_.apply(context.getParams().getSnapshot());
+        if (v_.seen_.snapshots + v_.seen_.frames > 0 && v_.mirror_.sequence() <= v_.seen_.sequence)
+          ++v_.seen_.not_increasing;
         ++v_.seen_.snapshots;
         v_.seen_.sequence = v_.mirror_.sequence();
       } catch (const std::exception& e) {
@@ -128,6 +131,7 @@ class StreamViewer {
         ++v_.seen_.frames;
         if (f.getMeshes().size() == 0) ++v_.seen_.keepalives;
         else ++v_.seen_.frames_with_meshes;
+        if (f.getSequence() <= v_.seen_.sequence) ++v_.seen_.not_increasing;
         v_.seen_.sequence = f.getSequence();
         v_.seen_.frame_bytes += context.getParams().totalSize().wordCount * 8;
         if (f.getMeshes().size() > 0 && v_.latencies_.size() < kMaxLatencies) {

@@ -59,7 +59,7 @@ struct Fixture {
     info.rate_hz = 1000;
     info.meshes.resize(1);
     info.tools.resize(1);
-    server->set_scene(info, *published);
+    (void)server->set_scene(info, *published);
   }
 };
 
