@@ -30,6 +30,7 @@
 #include "haptics/haptics_thread.hpp"
 #include "input/device_manager.hpp"
 #include "input/mapping.hpp"
+#include "input/replay_feed.hpp"
 #include "input/replay_source.hpp"
 #include "loop/compaction.hpp"
 #include "loop/preemption.hpp"
@@ -59,6 +60,7 @@ constexpr std::size_t kRingCapacity = 4096;                 // io → sim messag
 // seconds on a loaded machine still delivers every frame before its tick:
 // a late one would make the run differ from the recording.
 constexpr std::size_t kReplayRingCapacity = 16384;
+constexpr std::size_t kReplayReadAhead = 4096;  // messages read from the session before the io thread takes them
 constexpr double kRealtimeWakeEarlyUs = 100.0;  // wake_early_us's default with --realtime (docs/daemon.md)
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;       // duration check, replay pump, watchdog
 constexpr std::chrono::seconds kStatusEvery{5};
@@ -218,11 +220,15 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       // Every line checked before the first tick (one at a time: bounded
       // memory), so a bad line deep in the file is named now, not mid-run.
       input::check_session(cfg_.input.replay);
-      replay_ = std::make_unique<input::ReplaySource>(
-          cfg_.input.replay, rate_,
-          [this](std::uint8_t slot, const input::DeviceInfo& info) { return bind_recorded(slot, info); });
-      replay_->start(1);
-      replay_->pump(stages_->ring());  // as far ahead as the ring holds
+      input::ReplaySource source(cfg_.input.replay, rate_, [this](std::uint8_t slot, const input::DeviceInfo& info) {
+        return bind_recorded(slot, info);
+      });
+      source.start(1);
+      // The attaches are bound here; the frames are read on the feed's own
+      // thread, the first ring's worth before the first tick.
+      for (std::size_t d = 0; d < source.header().devices.size(); ++d) push(*source.next(), "attach");
+      replay_ = std::make_unique<input::ReplayFeed>(std::move(source), kReplayReadAhead);
+      replay_->pump(stages_->ring());
       log::info("input: replaying {} ({} devices)", cfg_.input.replay.string(), replay_->header().devices.size());
     } else {
       input::DeviceManagerOptions o;
@@ -604,16 +610,16 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     });
   }
 
-  // Queues the replay as far ahead as the ring holds. A file that changed
-  // under us after the start's check (a bad line) ends the replay, with the
-  // error, and never the daemon: the sculpt goes on with what was played.
+  // Queues the replay as far ahead as the ring holds (from memory: the
+  // feed's thread reads the file). A file that changed under us after the
+  // start's check (a bad line) ends the replay, with the error, and never
+  // the daemon: the sculpt goes on with what was played.
   void pump_replay() {
-    if (!replay_ || replay_failed_ || replay_->finished()) return;
-    try {
-      replay_->pump(stages_->ring());
-    } catch (const std::exception& e) {
+    if (!replay_ || replay_failed_) return;
+    replay_->pump(stages_->ring());
+    if (const auto error = replay_->error()) {
       replay_failed_ = true;
-      log::err("replay ended early: {}; the sculpt goes on without its remaining frames", e.what());
+      log::err("replay ended early: {}; the sculpt goes on without its remaining frames", *error);
     }
   }
 
@@ -789,7 +795,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<haptics::FeedbackBoard> board_;
   std::unique_ptr<SculptStages> stages_;
   std::unique_ptr<haptics::HapticsThread> haptics_;
-  std::unique_ptr<input::ReplaySource> replay_;
+  std::unique_ptr<input::ReplayFeed> replay_;
   bool replay_failed_ = false;
   std::unique_ptr<input::DeviceManager> devices_;
   std::unique_ptr<server::PublishedState> published_;
