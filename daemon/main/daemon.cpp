@@ -1,25 +1,14 @@
 #include "main/daemon.hpp"
 
-#include <sys/epoll.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <array>
 #include <bit>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <cstring>
 #include <fstream>
-#include <limits>
-#include <map>
 #include <memory>
 #include <optional>
-#include <system_error>
 #include <utility>
-
-#include <linux/input.h>
 
 #include <kj/async-io.h>
 #include <kj/async-unix.h>
@@ -30,6 +19,7 @@
 #include "haptics/haptics_thread.hpp"
 #include "input/device_manager.hpp"
 #include "input/mapping.hpp"
+#include "input/device_clock.hpp"
 #include "input/replay_feed.hpp"
 #include "input/replay_source.hpp"
 #include "loop/compaction.hpp"
@@ -41,8 +31,11 @@
 #include "main/log.hpp"
 #include "main/notify.hpp"
 #include "main/blowup_log.hpp"
+#include "main/device_events.hpp"
+#include "main/device_table.hpp"
 #include "main/pipeline.hpp"
 #include "main/simulation.hpp"
+#include "main/watchdog.hpp"
 #include "main/worker.hpp"
 #include "client/socket_path.hpp"
 #include "scene/scene.hpp"
@@ -120,7 +113,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     const input::DeviceBinding b = router_.attach(slot, info, mapping_);
     for (const auto& w : router_.warnings()) log::warning("{}", w);
     remember_device(slot, info, b);
-    anchors_[slot % anchors_.size()] = Anchor{};
+    clock_.forget(slot);
     push(input::InputMessage::attach(slot, b), "attach");
     log::info("device {}: {} [{}] on slot {}, drives {} tool(s)", info.node.empty() ? "(recorded)" : info.node,
               info.name, input::to_string(info.kind), slot, std::popcount(b.tool_mask));
@@ -128,19 +121,22 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
   void on_detach(std::uint8_t slot) override {
     router_.detach(slot);
-    if (auto it = known_devices_.find(slot); it != known_devices_.end()) {
-      it->second.connected = false;
-      it->second.node.clear();
-    }
+    device_table_.detached(slot);
     tell_server_devices();
-    anchors_[slot % anchors_.size()] = Anchor{};
+    clock_.forget(slot);
     push(input::InputMessage::detach(slot), "detach");
     if (haptics_) haptics_->detach(slot);
     log::info("device on slot {} is gone", slot);
   }
   void on_frame(const input::InputFrame& frame) override {
     input::InputFrame f = frame;
-    if (cfg_.input_clock == InputClock::device) f.at_tick = device_tick(f);
+    if (cfg_.input_clock == InputClock::device) {
+      const input::DeviceClock::Placement p = clock_.place(f, current_tick());
+      if (p.anchored)
+        log::debug("slot {}: device clock anchored: device time {} us applies on tick {}", f.slot, f.device_time_us,
+                   p.tick);
+      f.at_tick = p.tick;
+    }
     push(input::InputMessage::of_frame(f), "frame");
   }
   void on_log(int priority, const std::string& message) override {
@@ -148,12 +144,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
 
  private:
-  struct Anchor {
-    bool valid = false;
-    std::int64_t base = 0;   // tick of device time 0
-    std::int64_t last = 0;   // ticks stay in order
-  };
-
   void taskFailed(kj::Exception&& e) override {
     log::err("io loop: {}", e.getDescription().cStr());
     request_stop(1);
@@ -166,30 +156,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   // The running sim thread's stats (zeros in the moment a swap's new thread
   // could not start yet).
   const loop::LoopStats& loop_stats() const { return sim_ ? sim_->stats() : idle_stats_; }
-
-  // --input-clock device: the frame applies at its device time plus a fixed
-  // delay, counted from the device's first frame, not when it arrived: a
-  // session replayed through uinput lands on the ticks `replay:` gives it.
-  std::uint64_t device_tick(const input::InputFrame& f) {
-    // Frames without a device clock (a resync, a device without
-    // MSC_TIMESTAMP) apply in order, right after what is already queued.
-    if (!f.device_clock) return 0;
-    Anchor& a = anchors_[f.slot % anchors_.size()];
-    // Rounded exactly as ReplaySource rounds: same session, same ticks.
-    auto ticks_of = [this](std::int64_t t_us) { return static_cast<std::int64_t>(input::replay_tick(0, t_us, rate_)); };
-    if (!a.valid) {
-      const auto delay = static_cast<std::int64_t>(std::llround(cfg_.input_delay_ms * 1e-3 * rate_));
-      a.base = static_cast<std::int64_t>(current_tick()) + delay - ticks_of(f.device_time_us);
-      a.last = 1;
-      a.valid = true;
-      log::debug("slot {}: device clock anchored: device time {} us applies on tick {}", f.slot, f.device_time_us,
-                 a.base + ticks_of(f.device_time_us));
-    }
-    std::int64_t t = a.base + ticks_of(f.device_time_us);
-    t = std::max({t, a.last, std::int64_t{1}});
-    a.last = t;
-    return static_cast<std::uint64_t>(t);
-  }
 
   void push(const input::InputMessage& m, const char* what) {
     if (stages_->ring().try_push(m)) return;
@@ -234,13 +200,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       input::DeviceManagerOptions o;
       o.discovery = cfg_.input.kind == InputSpec::Kind::evdev ? input::Discovery::inotify : input::Discovery::automatic;
       devices_ = std::make_unique<input::DeviceManager>(*this, o);
-      devices_->on_fds_changed([this] { fds_changed_ = true; });
-      epoll_ = ::epoll_create1(EPOLL_CLOEXEC);
-      if (epoll_ < 0) throw std::system_error(errno, std::generic_category(), "epoll_create1");
       devices_->start();
-      sync_device_fds();
-      device_observer_ = kj::heap<kj::UnixEventPort::FdObserver>(io_.unixEventPort, epoll_,
-                                                                  kj::UnixEventPort::FdObserver::OBSERVE_READ);
+      device_events_ = std::make_unique<DeviceEvents>(io_.unixEventPort, *devices_);
       log::info("input: live devices ({}), {} attached, clock {}", devices_->discovery(), devices_->attached(),
                 cfg_.input_clock == InputClock::device ? "device" : "arrival");
     }
@@ -271,8 +232,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     // The io loop's tasks.
     tasks_ = kj::heap<kj::TaskSet>(*this);
     for (int sig : {SIGTERM, SIGINT, SIGHUP}) tasks_->add(watch_signal(sig));
-    if (device_observer_) tasks_->add(pump_devices());
-    watchdog_ = notify::watchdog_interval();
+    if (device_events_) tasks_->add(device_events_->run());
+    watchdog_ = std::make_unique<Watchdog>(notify::watchdog_interval());
     tasks_->add(housekeeping());
     started_ = std::chrono::steady_clock::now();
   }
@@ -333,6 +294,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   void install(Simulation p, std::uint64_t first_tick) {
     scene_ = std::move(p.scene);
     rate_ = p.rate;
+    clock_.set_rate(rate_);
     tools_ = p.tools;
     world_ = std::move(p.world);
     stages_ = std::move(p.stages);
@@ -481,30 +443,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
 
   void remember_device(std::uint8_t slot, const input::DeviceInfo& info, const input::DeviceBinding& b) {
-    server::DeviceEntry d;
-    d.slot = slot;
-    d.name = info.name;
-    d.node = info.node;
-    d.vendor = info.vendor;
-    d.product = info.product;
-    d.kind = std::string(input::to_string(info.kind));
-    d.connected = true;
-    d.ff = info.has_ff(FF_CONSTANT) ? 2 : info.has_ff(FF_RUMBLE) ? 1 : 0;
-    for (std::uint32_t t = 0; t < input::kMaxTools; ++t)
-      if (b.drives(t)) d.tools.push_back(t);
-    known_devices_[slot] = std::move(d);
+    device_table_.attached(slot, info, b);
     tell_server_devices();
   }
 
   // The streamed tools say which device drives them.
   void tell_server_devices() {
-    if (!server_) return;
-    std::vector<std::int32_t> slot_of(tools_, -1);
-    for (const auto& [slot, d] : known_devices_)
-      if (d.connected)
-        for (std::uint32_t t : d.tools)
-          if (t < slot_of.size()) slot_of[t] = static_cast<std::int32_t>(slot);
-    server_->set_tool_devices(slot_of);
+    if (server_) server_->set_tool_devices(device_table_.slot_of_tools(tools_));
   }
 
   // --- server::Control (io thread) -------------------------------------------
@@ -525,7 +470,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   }
   std::vector<server::DeviceEntry> devices() override {
     std::vector<server::DeviceEntry> out;
-    for (const auto& [slot, d] : known_devices_) {
+    for (const auto& [slot, d] : device_table_.entries()) {
       out.push_back(d);
       static_assert(haptics::HapticsStats::kSlots >= input::kMaxDevices, "a device slot without an FF counter");
       if (haptics_ && slot < haptics::HapticsStats::kSlots)
@@ -566,42 +511,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     });
   }
 
-  kj::Promise<void> pump_devices() {
-    if (drain_devices()) return kj::evalLater([this] { return pump_devices(); });
-    return device_observer_->whenBecomesReadable().then([this] { return pump_devices(); });
-  }
-
-  // Dispatches ready device fds; true when some may still be ready (the
-  // level-triggered inner epoll said so after the round limit).
-  bool drain_devices() {
-    std::array<epoll_event, 16> ev{};
-    for (int round = 0; round < 32; ++round) {
-      const int n = ::epoll_wait(epoll_, ev.data(), static_cast<int>(ev.size()), 0);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) return false;
-      for (int i = 0; i < n; ++i) {
-        devices_->dispatch(ev[static_cast<std::size_t>(i)].data.fd);
-        if (fds_changed_) sync_device_fds();
-      }
-    }
-    return true;
-  }
-
-  // Re-registers every device fd: a closed fd's number may already belong
-  // to a new device, so nothing registered before is trusted.
-  void sync_device_fds() {
-    fds_changed_ = false;
-    for (int fd : registered_) ::epoll_ctl(epoll_, EPOLL_CTL_DEL, fd, nullptr);  // errors: already gone
-    registered_ = devices_->fds();
-    for (int fd : registered_) {
-      epoll_event e{};
-      e.events = EPOLLIN;
-      e.data.fd = fd;
-      if (::epoll_ctl(epoll_, EPOLL_CTL_ADD, fd, &e) != 0)
-        log::warning("cannot watch device fd {}: {}", fd, std::strerror(errno));
-    }
-  }
-
   kj::Promise<void> housekeeping() {
     return io_.provider->getTimer().afterDelay(kHousekeeping).then([this]() -> kj::Promise<void> {
       if (stopping_) return kj::READY_NOW;
@@ -640,21 +549,13 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       return;
     }
     pump_replay();
-    if (watchdog_ && now >= next_watchdog_) {
-      // Only a ticking sim thread keeps the service alive: a stuck one gets
-      // the process restarted (Restart=on-failure) after WatchdogSec.
-      // Heartbeats, not ticks: a paused loop is alive.
-      const std::uint64_t t = sim_->stats().heartbeats.load(std::memory_order_acquire);
-      if (t != watchdog_ticks_) {
-        notify::watchdog();
-        watchdog_ticks_ = t;
-        stalled_logged_ = false;
-      } else if (!stalled_logged_) {
-        log::err("sim thread stalled at tick {}: withholding the watchdog ping", t);
-        stalled_logged_ = true;
-      }
-      next_watchdog_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                 *watchdog_ * cfg_.watchdog_fraction);
+    switch (watchdog_->check(now, sim_->stats().heartbeats.load(std::memory_order_acquire), cfg_.watchdog_fraction)) {
+      case Watchdog::Due::ping: notify::watchdog(); break;
+      case Watchdog::Due::stalled:
+        log::err("sim thread stalled at tick {}: withholding the watchdog ping", sim_->ticks());
+        break;
+      case Watchdog::Due::nothing:
+      case Watchdog::Due::still_stalled: break;
     }
     // A fact tests (and people reading debug logs) can wait for: nothing
     // moves any more, so the meshes stay bit-identical from here on.
@@ -723,6 +624,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       haptics_->configure(next.haptics);
       cfg_.watchdog_fraction = next.watchdog_fraction;
       cfg_.input_delay_ms = next.input_delay_ms;
+      clock_.set_delay_ms(next.input_delay_ms);
       cfg_.stats_json = next.stats_json;
       cfg_.hash_out = next.hash_out;
       cfg_.mapping_table = std::move(next.mapping_table);
@@ -751,10 +653,8 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     stop_threads();
     const std::uint64_t devices = device_count();  // attached until now
     tasks_ = nullptr;
-    device_observer_ = nullptr;
+    device_events_.reset();
     devices_.reset();
-    if (epoll_ >= 0) ::close(epoll_);
-    epoll_ = -1;
     loop::StatsSnapshot s = loop::snapshot(loop_stats(), rate_);
     s.devices = devices;
     s.ff_uploads = haptics_->stats().ff.uploads.load();
@@ -788,7 +688,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::size_t tools_ = 0;
   input::MappingConfig mapping_;
   input::ToolRouter router_;
-  std::array<Anchor, input::kMaxDevices> anchors_{};
+  input::DeviceClock clock_{1000.0, cfg_.input_delay_ms};  // --input-clock device; its rate follows the scene's
   std::uint64_t dropped_ = 0;
 
   std::unique_ptr<sim::World<float>> world_;
@@ -799,7 +699,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   bool replay_failed_ = false;
   std::unique_ptr<input::DeviceManager> devices_;
   std::unique_ptr<server::PublishedState> published_;
-  std::map<std::uint8_t, server::DeviceEntry> known_devices_;
+  DeviceTable device_table_;
   std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
   loop::LoopStats idle_stats_;             // loop_stats() while sim_ is missing
   std::uint64_t pending_start_tick_ = 0;   // where a sim thread that could not start will start
@@ -819,15 +719,10 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
   std::unique_ptr<server::Server> server_;
   std::unique_ptr<server::ListenSocket> listen_;
   std::string socket_path_;
-  int epoll_ = -1;
-  std::vector<int> registered_;
-  bool fds_changed_ = false;
-  kj::Own<kj::UnixEventPort::FdObserver> device_observer_;
+  std::unique_ptr<DeviceEvents> device_events_;  // after devices_: destroyed first
 
-  std::optional<std::chrono::microseconds> watchdog_;
-  std::chrono::steady_clock::time_point next_watchdog_{}, next_status_{}, started_{};
-  std::uint64_t watchdog_ticks_ = std::numeric_limits<std::uint64_t>::max();
-  bool stalled_logged_ = false;
+  std::unique_ptr<Watchdog> watchdog_;
+  std::chrono::steady_clock::time_point next_status_{}, started_{};
   bool ready_sent_ = false;  // READY and "sculptd ready" go out once, after the first tick
   bool at_rest_ = true;
   bool stopping_ = false;
