@@ -38,7 +38,7 @@ std::int64_t int_value(const json& j) {
 std::uint16_t parse_code(const json& j, std::uint16_t type, const std::string& where, const std::string& field) {
   if (j.is_number_integer()) {
     const auto v = int_value(j);
-    if (v < 0 || v > 0x2ff) fail(where, fmt::format("{}: code {} out of range", field, v));
+    if (v < 0 || v > 0x2ff) fail(where, fmt::format("{}: code {} out of range (0..0x2ff)", field, j.dump()));
     return static_cast<std::uint16_t>(v);
   }
   if (j.is_string()) {
@@ -62,7 +62,8 @@ T get_int(const json& obj, const char* key, const std::string& where, const std:
   const auto v = int_value(*it);
   if (v < static_cast<std::int64_t>(std::numeric_limits<T>::min()) ||
       v > static_cast<std::int64_t>(std::numeric_limits<T>::max()))
-    fail(where, fmt::format("{}: field '{}' = {} is out of range", ctx, key, v));
+    fail(where, fmt::format("{}: field '{}' = {} is out of range ({}..{})", ctx, key, it->dump(),
+                            +std::numeric_limits<T>::min(), +std::numeric_limits<T>::max()));
   return static_cast<T>(v);
 }
 
@@ -261,7 +262,7 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
   if (!j[1].is_number_integer()) fail(where, "device must be an integer index into the header's devices");
   const auto dev = int_value(j[1]);
   if (dev < 0 || static_cast<std::size_t>(dev) >= devices)
-    fail(where, fmt::format("device {} does not exist (the header lists {})", dev, devices));
+    fail(where, fmt::format("device {} does not exist (the header lists {})", j[1].dump(), devices));
   f.device = static_cast<std::uint32_t>(dev);
   if (!j[2].is_array()) fail(where, "events must be an array of [type, code, value]");
   for (std::size_t i = 0; i < j[2].size(); ++i) {
@@ -270,9 +271,10 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
         !e[2].is_number_integer())
       fail(where, fmt::format("event {} must be [type, code, value] integers", i));
     const auto type = int_value(e[0]), code = int_value(e[1]), value = int_value(e[2]);
-    if (type < 0 || type > EV_MAX) fail(where, fmt::format("event {}: type {} out of range", i, type));
-    if (code < 0 || code > 0x2ff) fail(where, fmt::format("event {}: code {} out of range", i, code));
-    if (value < INT32_MIN || value > INT32_MAX) fail(where, fmt::format("event {}: value {} out of range", i, value));
+    if (type < 0 || type > EV_MAX) fail(where, fmt::format("event {}: type {} out of range (0..{})", i, e[0].dump(), EV_MAX));
+    if (code < 0 || code > 0x2ff) fail(where, fmt::format("event {}: code {} out of range (0..0x2ff)", i, e[1].dump()));
+    if (value < INT32_MIN || value > INT32_MAX)
+      fail(where, fmt::format("event {}: value {} out of range (a 32-bit signed integer)", i, e[2].dump()));
     f.events.push_back({static_cast<std::uint16_t>(type), static_cast<std::uint16_t>(code),
                         static_cast<std::int32_t>(value)});
   }

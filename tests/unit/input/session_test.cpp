@@ -101,6 +101,12 @@ TEST(Session, Errors) {
   EXPECT_NE(error_of("f6", kHeader + "\n[0,0,[[3,0,5]]\n").find("f6:2: not valid JSON"), std::string::npos);
   EXPECT_NE(error_of("f7", kHeader + "\n[0,0,[[3,0,99999999999]]]\n").find("value 99999999999 out of range"),
             std::string::npos);
+  // Past int64: named as written, not as some clamped or wrapped number.
+  EXPECT_NE(error_of("f8", kHeader + "\n[0,0,[[3,0,18446744073709551615]]]\n")
+                .find("f8:2: event 0: value 18446744073709551615 out of range"),
+            std::string::npos);
+  EXPECT_NE(error_of("f9", kHeader + "\n[0,18446744073709551615,[]]\n").find("device 18446744073709551615 does not"),
+            std::string::npos);
 }
 
 TEST(Session, ShippedSessionsRead) {
