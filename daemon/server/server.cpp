@@ -22,6 +22,8 @@ namespace {
 
 // A connection is not taken for a silent one before it had this long to say hello.
 constexpr std::int64_t kHelloGraceNs = 1'000'000'000;
+// A refused client has this long to read its answer and close before the server closes it.
+constexpr std::int64_t kRefusalGraceNs = 1'000'000'000;
 
 bool same_tools(const PublishedHeader& a, const PublishedHeader& b) {
   if (a.tool_count != b.tool_count) return false;
@@ -207,6 +209,7 @@ struct Server::Client {
   std::string refusal;   // served only to be told this (the client table was full)
   std::string violation; // the limit its messages broke (checked_stream.hpp), for the log
   std::int64_t connected_ns = 0;
+  std::int64_t answered_ns = 0;  // a refusal: when its answer was written (0: not yet)
   bool closing = false;  // over a limit: dropped at the next turn of the loop
   int fd = -1;           // the socket (owned by `stream`), to see whether the peer is gone
   kj::Own<kj::AsyncIoStream> stream;
@@ -454,8 +457,14 @@ void Server::check_queues() {
     if (queued > limit)
       over.emplace_back(id, fmt::format("{} bytes of replies and frames it has not read (limit: {}, max_queued_bytes)",
                                         queued, limit));
-    else if (!c->refusal.empty() && c->hello && c->network->getCurrentQueueCount() == 0)
-      over.emplace_back(id, c->refusal);  // the refusal was written: close it
+    else if (!c->refusal.empty() && c->hello && c->network->getCurrentQueueCount() == 0) {
+      // The refusal is written. The client closes once it has read it; a
+      // close from this side first could fail the client's own next write
+      // (EPIPE) before it reads the answer, so it gets a second to do so.
+      const std::int64_t now = loop::monotonic_ns();
+      if (c->answered_ns == 0) c->answered_ns = now;
+      else if (now - c->answered_ns > kRefusalGraceNs) over.emplace_back(id, c->refusal);
+    }
   }
   for (const auto& [id, why] : over) drop(id, why);
 }
