@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -38,6 +37,7 @@
 #include "main/watchdog.hpp"
 #include "main/worker.hpp"
 #include "client/socket_path.hpp"
+#include "scene/atomic_file.hpp"
 #include "scene/scene.hpp"
 #include "server/listener.hpp"
 #include "server/published_state.hpp"
@@ -81,12 +81,6 @@ std::vector<haptics::ToolStick> tool_sticks(const input::DeviceBinding& b, std::
   return out;
 }
 
-void write_file(const std::string& path, const std::string& text, const char* what) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error(std::string(what) + ": cannot write " + path);
-}
 
 class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::Control {
  public:
@@ -668,14 +662,20 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
               "{} FF uploads ({} errors), final mesh hash {:016x}",
               s.ticks, s.overruns, s.jitter_us.p50, s.jitter_us.p99, s.jitter_us.max, s.ff_uploads,
               haptics_->stats().ff.errors.load(), hash);
-    try {
-      if (!cfg_.stats_json.empty()) write_file(cfg_.stats_json, loop::stats_json(s).dump(2) + "\n", "--stats-json");
-      if (!cfg_.hash_out.empty()) write_file(cfg_.hash_out, fmt::format("{:016x}\n", hash), "--hash-out");
-    } catch (const std::exception& e) {
-      log::err("{}", e.what());
-      return 1;
-    }
-    return status;
+    // Whole or not at all, like a save: a reader never sees half a file.
+    const auto write = [](const char* flag, const std::string& path, const std::string& text) {
+      if (path.empty()) return true;
+      try {
+        scene::write_file_atomically(path, text);
+        return true;
+      } catch (const std::exception& e) {
+        log::err("{}: {}", flag, e.what());
+        return false;
+      }
+    };
+    const bool stats_written = write("--stats-json", cfg_.stats_json, loop::stats_json(s).dump(2) + "\n");
+    const bool hash_written = write("--hash-out", cfg_.hash_out, fmt::format("{:016x}\n", hash));
+    return stats_written && hash_written ? status : 1;
   }
 
   RunOptions opts_;
