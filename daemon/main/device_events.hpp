@@ -10,6 +10,7 @@
 
 #include <kj/async-unix.h>
 
+#include "files/unique_fd.hpp"
 #include "input/device_manager.hpp"
 
 namespace sculpt::daemon {
@@ -30,7 +31,7 @@ class DeviceEvents {
   void sync_fds();
 
   input::DeviceManager& devices_;
-  int epoll_ = -1;
+  files::UniqueFd epoll_;
   std::vector<int> registered_;
   bool fds_changed_ = false;
   kj::Own<kj::UnixEventPort::FdObserver> observer_;
