@@ -531,10 +531,24 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     if (!line.empty()) log::warning("{}", line);
   }
 
+  // A sim thread that could not start yet counts as stalled: its heartbeats
+  // do not move, so systemd restarts the service if it never does.
+  void feed_watchdog(std::chrono::steady_clock::time_point now) {
+    switch (watchdog_->check(now, loop_stats().heartbeats.load(std::memory_order_acquire), cfg_.watchdog_fraction)) {
+      case Watchdog::Due::ping: notify::watchdog(); break;
+      case Watchdog::Due::stalled:
+        log::err("sim thread stalled at tick {}: withholding the watchdog ping", current_tick());
+        break;
+      case Watchdog::Due::nothing:
+      case Watchdog::Due::still_stalled: break;
+    }
+  }
+
   void housekeep() {
     const auto now = std::chrono::steady_clock::now();
     restart_sim_if_missing();
     log_blowups(now);
+    feed_watchdog(now);
     if (!sim_) return;
     announce_ready_once();
     if (sim_->finished()) {
@@ -543,14 +557,6 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
       return;
     }
     pump_replay();
-    switch (watchdog_->check(now, sim_->stats().heartbeats.load(std::memory_order_acquire), cfg_.watchdog_fraction)) {
-      case Watchdog::Due::ping: notify::watchdog(); break;
-      case Watchdog::Due::stalled:
-        log::err("sim thread stalled at tick {}: withholding the watchdog ping", sim_->ticks());
-        break;
-      case Watchdog::Due::nothing:
-      case Watchdog::Due::still_stalled: break;
-    }
     // A fact tests (and people reading debug logs) can wait for: nothing
     // moves any more, so the meshes stay bit-identical from here on.
     const bool at_rest = sim_->stats().vertices_awake.load(std::memory_order_relaxed) == 0;
