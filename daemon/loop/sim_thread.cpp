@@ -173,7 +173,8 @@ void SimThread::run() {
     store(stats_.vertices_awake, ws.awake_vertices);
     store(stats_.last_blowup_body, ws.last_blowup_body);
     store(stats_.last_blowup_cause, static_cast<std::uint8_t>(ws.last_blowup_cause));
-    store(stats_.blowups, ws.blowups_total);
+    // Release: a reader that sees the new count sees the body and cause above.
+    stats_.blowups.store(ws.blowups_total, std::memory_order_release);
     store(stats_.contacts, ws.contacts);
     stats_.last_tick_ns.store(t3, std::memory_order_relaxed);
 

@@ -23,7 +23,7 @@ std::string BlowupLog::describe(const loop::LoopStats& stats) const {
 }
 
 std::string BlowupLog::check(const loop::LoopStats& stats, std::uint64_t tick, Clock::time_point now) {
-  const std::uint64_t total = stats.blowups.load(std::memory_order_relaxed);
+  const std::uint64_t total = stats.blowups.load(std::memory_order_acquire);  // then body and cause
   if (total <= seen_) return {};
   std::string line;
   if (seen_ == 0) {
