@@ -7,6 +7,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "files/write_all.hpp"
+
 namespace sculpt::cli {
 namespace {
 
@@ -109,17 +111,7 @@ std::string command_path(const CLI::App& app, const CLI::App* at) {
 
 }  // namespace
 
-void write_stderr(std::string_view text) {
-  const char* p = text.data();
-  std::size_t left = text.size();
-  while (left > 0) {
-    const ssize_t n = ::write(STDERR_FILENO, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return;
-    p += static_cast<std::size_t>(n);
-    left -= static_cast<std::size_t>(n);
-  }
-}
+void write_stderr(std::string_view text) { (void)files::write_all(STDERR_FILENO, text); }
 
 void set_program(std::string_view name) { program_name() = std::string(name); }
 const std::string& program() { return program_name(); }

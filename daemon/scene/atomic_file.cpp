@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "files/write_all.hpp"
 #include "scene/errors.hpp"
 
 namespace sculpt::scene {
@@ -34,21 +35,6 @@ void remove_stale_temps(const fs::path& dir, const std::string& prefix) {
   }
 }
 
-bool write_all(int fd, std::string_view bytes) {
-  const char* p = bytes.data();
-  std::size_t left = bytes.size();
-  while (left) {
-    const ssize_t n = ::write(fd, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      if (n == 0) errno = EIO;
-      return false;
-    }
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -76,7 +62,7 @@ void write_file_atomically(const fs::path& file, std::string_view bytes) {
     throw ExportError(file, step + ": " + std::strerror(err));
   };
   ::fchmod(fd, 0644);  // whatever the umask: an exported mesh is meant to be shared
-  if (!write_all(fd, bytes)) fail("write failed");
+  if (!files::write_all(fd, bytes)) fail("write failed");
   if (::fsync(fd) != 0) fail("fsync failed");
   if (unnamed) {
     // linkat through /proc needs no privilege (AT_EMPTY_PATH would).

@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 
 #include "files/unique_fd.hpp"
+#include "files/write_all.hpp"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SCULPT_ASAN 1
@@ -35,17 +36,6 @@ namespace {
   throw std::system_error(errno, std::generic_category(), what);
 }
 
-bool write_all(int fd, const void* data, std::size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size) {
-    const ssize_t n = ::write(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    size -= static_cast<std::size_t>(n);
-  }
-  return true;
-}
 
 // Child side. Status byte 0 = payload follows, 1 = error message follows.
 [[noreturn]] void child_main(int out_fd, const std::function<std::vector<std::byte>()>& work,
@@ -85,9 +75,11 @@ bool write_all(int fd, const void* data, std::size_t size) {
   } catch (...) {
     error = "failed";
   }
-  bool ok = write_all(out_fd, &status, 1);
-  ok = ok && (status == 0 ? write_all(out_fd, payload.data(), payload.size())
-                          : write_all(out_fd, error.data(), error.size()));
+  const char status_byte = static_cast<char>(status);
+  const std::string_view body = status == 0
+                                    ? std::string_view(reinterpret_cast<const char*>(payload.data()), payload.size())
+                                    : std::string_view(error);
+  const bool ok = files::write_all(out_fd, std::string_view(&status_byte, 1)) && files::write_all(out_fd, body);
   ::_exit(ok ? 0 : 3);  // no atexit handlers, no stdio flush: the parent owns those
 }
 
