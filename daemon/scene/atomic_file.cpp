@@ -47,7 +47,10 @@ void write_file_atomically(const fs::path& file, std::string_view bytes) {
   // nothing behind. It gets a name only for the moment between link and
   // rename. File systems without O_TMPFILE get a named temp file.
   std::string name;
-  int fd = ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
+  // The unnamed file is named later through /proc: without /proc (a chroot,
+  // a sandbox) it could never be, so a named temp file is used from the start.
+  const bool proc = ::access("/proc/self/fd", F_OK) == 0;
+  int fd = proc ? ::open(dir.c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644) : -1;
   const bool unnamed = fd >= 0;
   if (!unnamed) {
     std::string tmpl = (dir / (prefix + "XXXXXX")).string();
