@@ -120,8 +120,10 @@ std::array<S, 3> Body<S>::saved_position(std::uint32_t i) const {
   return {g.lo[0] + S(sx[i]) * g.step[0], g.lo[1] + S(sy[i]) * g.step[1], g.lo[2] + S(sz[i]) * g.step[2]};
 }
 
-template <class S>
-Body<S> make_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options, int tool_slots) {
+namespace {
+
+// Throws std::invalid_argument naming the first bad input, in this order.
+void validate_input(const TriangleMesh& mesh, const Material& material, const BodyOptions& options) {
   validate(material);
   const std::size_t n_in = mesh.positions.size();
   if (n_in >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
@@ -137,30 +139,29 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   for (std::uint32_t p : options.pinned)
     if (p >= n_in) throw std::invalid_argument("mesh: pinned vertex " + std::to_string(p) + " does not exist");
   if (options.max_grabbed < 0) throw std::invalid_argument("body: max_grabbed must be >= 0");
+}
 
-  Body<S> b;
-  b.material = material;
-  b.plastic = material.plastic;
-  const std::uint32_t n = static_cast<std::uint32_t>(n_in);
-  b.n = n;
-  b.blocks = (n + kBlock - 1) / kBlock;
-  // Address space for the most the arrays below can take; only what they use
-  // is ever touched, and World::add_body trims the rest. Anything that does
-  // not fit falls back to the heap (Layout.BigBodiesKeepTheirArraysInOneArena
-  // checks that nothing does). A small body's arena stays empty: the heap.
-  if (n >= kArenaMinVertices) {
-    constexpr std::size_t kMaxSlots = 16;  // choose_slots' widest ELL
-    constexpr std::size_t scalars = 9       // x..z, wx..wz, rx..rz
-                                    + 3     // ax..az
-                                    + 3     // clay: srx..srz
-                                    + 2 * kMaxSlots  // rest_length, clay: slen
-                                    + 16;   // two packed records
-    constexpr std::size_t shorts = 3 + kMaxSlots;  // snapshot sx..sz, nbr
-    b.arena = PageArena(std::size_t{n} * (scalars * sizeof(S) + shorts * 2) + 32 * AlignedBuffer<S>::kAlignment);
-  }
-  PageArena* const arena = &b.arena;
+// Address space for the most the per-vertex arrays can take; only what they
+// use is ever touched, and World::add_body trims the rest. Anything that does
+// not fit falls back to the heap (Layout.BigBodiesKeepTheirArraysInOneArena
+// checks that nothing does). A small body's arena stays empty: the heap.
+template <class S>
+void reserve_arena(Body<S>& b) {
+  if (b.n < kArenaMinVertices) return;
+  constexpr std::size_t kMaxSlots = 16;  // choose_slots' widest ELL
+  constexpr std::size_t scalars = 9       // x..z, wx..wz, rx..rz
+                                  + 3     // ax..az
+                                  + 3     // clay: srx..srz
+                                  + 2 * kMaxSlots  // rest_length, clay: slen
+                                  + 16;   // two packed records
+  constexpr std::size_t shorts = 3 + kMaxSlots;  // snapshot sx..sz, nbr
+  b.arena = PageArena(std::size_t{b.n} * (scalars * sizeof(S) + shorts * 2) + 32 * AlignedBuffer<S>::kAlignment);
+}
 
-  // --- Morton order of the rest shape ---------------------------------------
+// Morton order of the rest shape (to_original, to_internal), and its extent.
+template <class S>
+void order_vertices(Body<S>& b, const TriangleMesh& mesh) {
+  const std::uint32_t n = b.n;
   std::array<double, 3> lo{}, hi{};
   if (n) {
     lo = hi = {mesh.positions[0][0], mesh.positions[0][1], mesh.positions[0][2]};
@@ -186,11 +187,15 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     b.to_original[i] = static_cast<std::uint32_t>(key[i] & 0xffffffffu);
     b.to_internal[b.to_original[i]] = i;
   }
+}
 
-  // --- state arrays ----------------------------------------------------------
-  // ax..az: World::add_body decides (only velocity Verlet and clay keep them).
-  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n, S(0), arena);
-  for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n, 0, arena);
+// Positions and rest shape in internal order, at rest, and the guard's first
+// snapshot. ax..az: World::add_body decides (only velocity Verlet and clay keep them).
+template <class S>
+void place_at_rest(Body<S>& b, const TriangleMesh& mesh) {
+  const std::uint32_t n = b.n;
+  for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n, S(0), &b.arena);
+  for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n, 0, &b.arena);
   b.snapshot_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
     const Vec3f& p = mesh.positions[b.to_original[i]];
@@ -199,16 +204,23 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     b.z[i] = b.rz[i] = static_cast<S>(p[2]);
     b.wx[i] = b.wy[i] = b.wz[i] = S(0);
   }
-  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);  // the rest shape: finite, checked above
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);  // the rest shape: finite, validated
+}
 
-  // --- springs: ELL + overflow ------------------------------------------------
-  // Adjacency as a temporary CSR (a vector per vertex would double the peak
-  // memory of building a big mesh).
-  struct Csr {
-    std::vector<std::uint32_t> off;
-    std::vector<std::int32_t> nb;
-    std::span<const std::int32_t> operator[](std::uint32_t i) const { return {nb.data() + off[i], nb.data() + off[i + 1]}; }
-  } adj;
+// Adjacency as a temporary CSR (a vector per vertex would double the peak
+// memory of building a big mesh), in internal indices.
+struct Csr {
+  std::vector<std::uint32_t> off;
+  std::vector<std::int32_t> nb;
+  std::span<const std::int32_t> operator[](std::uint32_t i) const { return {nb.data() + off[i], nb.data() + off[i + 1]}; }
+};
+
+// The springs as adjacency rows, each sorted (a fixed summation order); also
+// the spring count, mean rest edge, highest degree and the ELL width.
+template <class S>
+Csr connect_springs(Body<S>& b, const TriangleMesh& mesh) {
+  const std::uint32_t n = b.n;
+  Csr adj;
   double edge_sum = 0;
   {
     const std::vector<Edge> edges = unique_edges(mesh.triangles);
@@ -229,38 +241,52 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   }
   std::vector<int> degree(n);
   for (std::uint32_t i = 0; i < n; ++i) {
-    std::sort(adj.nb.begin() + adj.off[i], adj.nb.begin() + adj.off[i + 1]);  // fixed summation order
+    std::sort(adj.nb.begin() + adj.off[i], adj.nb.begin() + adj.off[i + 1]);
     degree[i] = static_cast<int>(adj.off[i + 1] - adj.off[i]);
     b.max_degree = std::max(b.max_degree, degree[i]);
   }
   b.slots = choose_slots(degree);
-  const bool spring_model = material.model == ForceModel::spring;
-  auto rest_len = [&](std::uint32_t i, std::int32_t j) {
-    const S dx = b.rx[j] - b.rx[i], dy = b.ry[j] - b.ry[i], dz = b.rz[j] - b.rz[i];
-    return std::sqrt(dx * dx + dy * dy + dz * dz);
-  };
-  b.nbr.resize(static_cast<std::size_t>(b.slots) * n, 0, arena);
-  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n, S(0), arena);
+  return adj;
+}
+
+template <class S>
+bool has_rest_lengths(const Body<S>& b) {
+  return b.material.model == ForceModel::spring;
+}
+
+template <class S>
+S rest_distance(const Body<S>& b, std::uint32_t i, std::int32_t j) {
+  const S dx = b.rx[j] - b.rx[i], dy = b.ry[j] - b.ry[i], dz = b.rz[j] - b.rz[i];
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+// Whether a spring fits the ELL by distance: its ends at most kRingReach
+// blocks apart, which also keeps the offset within 16 bits.
+static_assert((kernel::kRingReach + 1) * kBlock <= INT16_MAX);
+bool within_ring_reach(std::uint32_t i, std::int32_t j) {
+  const std::uint32_t bi = i / kBlock, bj = static_cast<std::uint32_t>(j) / kBlock;
+  return (bi > bj ? bi - bj : bj - bi) <= kernel::kRingReach;
+}
+
+// Each row in sorted order: the near neighbours fill the slots, the rest (past
+// the width, or beyond ring reach) go to the overflow list; padding is the
+// vertex itself (offset 0, rest length 0: zero force).
+template <class S>
+void build_ell(Body<S>& b, const Csr& adj) {
+  const std::uint32_t n = b.n;
+  const bool spring_model = has_rest_lengths(b);
+  b.nbr.resize(static_cast<std::size_t>(b.slots) * n, 0, &b.arena);
+  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n, S(0), &b.arena);
   b.overflow_begin.assign(b.blocks + 1, 0);
-  // Each row in sorted order: the near neighbours fill the slots, the rest
-  // (past the width, or more than kRingReach blocks away, which also keeps
-  // the offset within 16 bits) go to the overflow list; padding is the vertex
-  // itself (offset 0, rest length 0: zero force).
-  static_assert((kernel::kRingReach + 1) * kBlock <= INT16_MAX);
-  auto near = [](std::uint32_t i, std::int32_t j) {
-    const std::uint32_t bi = i / kBlock, bj = static_cast<std::uint32_t>(j) / kBlock;
-    return (bi > bj ? bi - bj : bj - bi) <= kernel::kRingReach;
-  };
   for (std::uint32_t i = 0; i < n; ++i) {
     int s = 0;
-    for (int e = 0; e < degree[i]; ++e) {
-      const std::int32_t j = adj[i][e];
-      if (s < b.slots && near(i, j)) {
+    for (const std::int32_t j : adj[i]) {
+      if (s < b.slots && within_ring_reach(i, j)) {
         b.nbr[static_cast<std::size_t>(s) * n + i] = static_cast<std::int16_t>(std::int64_t{j} - i);
-        if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = rest_len(i, j);
+        if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = rest_distance(b, i, j);
         ++s;
       } else {
-        b.overflow.push_back({i, j, rest_len(i, j)});
+        b.overflow.push_back({i, j, rest_distance(b, i, j)});
       }
     }
     for (; s < b.slots; ++s) {
@@ -271,10 +297,13 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   b.overflow.shrink_to_fit();  // grown by push_back: up to twice its size
   for (const auto& o : b.overflow) ++b.overflow_begin[o.i / kBlock + 1];
   std::partial_sum(b.overflow_begin.begin(), b.overflow_begin.end(), b.overflow_begin.begin());
+}
 
-  // --- block neighbours -------------------------------------------------------
+// The CSR of blocks that share a spring.
+template <class S>
+void link_blocks(Body<S>& b, const Csr& adj) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> bpairs;
-  for (std::uint32_t i = 0; i < n; ++i)
+  for (std::uint32_t i = 0; i < b.n; ++i)
     for (std::int32_t j : adj[i])
       if (i / kBlock != static_cast<std::uint32_t>(j) / kBlock) bpairs.emplace_back(i / kBlock, j / kBlock);
   std::sort(bpairs.begin(), bpairs.end());
@@ -285,50 +314,59 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     b.block_neighbours.push_back(c);
   }
   std::partial_sum(b.block_neighbour_begin.begin(), b.block_neighbour_begin.end(), b.block_neighbour_begin.begin());
+}
+
+// Per block the last block whose forces read it, and how many blocks can wait
+// to integrate at once.
+template <class S>
+void find_last_readers(Body<S>& b) {
   b.last_reader.resize(b.blocks);
-  {
-    std::vector<std::int32_t> opened(b.blocks + 1, 0);  // blocks done but still read by a later one, by difference
-    for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
-      std::uint32_t last = blk;
-      for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
-        last = std::max(last, b.block_neighbours[e]);
-      b.last_reader[blk] = last;
-      ++opened[blk], --opened[last];  // waiting after the forces of blocks blk .. last − 1
-    }
-    std::int32_t waiting = 0, most = 0;
-    for (std::uint32_t blk = 0; blk < b.blocks; ++blk) most = std::max(most, waiting += opened[blk]);
-    b.pending_capacity = static_cast<std::uint32_t>(most) + 1;
+  std::vector<std::int32_t> opened(b.blocks + 1, 0);  // blocks done but still read by a later one, by difference
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
+    std::uint32_t last = blk;
+    for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
+      last = std::max(last, b.block_neighbours[e]);
+    b.last_reader[blk] = last;
+    ++opened[blk], --opened[last];  // waiting after the forces of blocks blk .. last − 1
   }
+  std::int32_t waiting = 0, most = 0;
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) most = std::max(most, waiting += opened[blk]);
+  b.pending_capacity = static_cast<std::uint32_t>(most) + 1;
+}
 
-  // --- triangles, owned by the block of their lowest vertex -------------------
-  {
-    std::vector<Triangle> all;
-    all.reserve(mesh.triangles.size());
-    for (const Triangle& t : mesh.triangles) all.push_back({b.to_internal[t[0]], b.to_internal[t[1]], b.to_internal[t[2]]});
-    auto owner = [](const Triangle& t) { return std::min({t[0], t[1], t[2]}) / kBlock; };
-    std::stable_sort(all.begin(), all.end(), [&](const Triangle& p, const Triangle& q) { return owner(p) < owner(q); });
-    auto fits = [&](const Triangle& t) {
-      const std::uint32_t base = owner(t) * kBlock;
-      return std::max({t[0], t[1], t[2]}) - base <= std::numeric_limits<std::uint16_t>::max();
-    };
-    b.triangle_begin.assign(b.blocks + 1, 0);
-    b.far_triangle_begin.assign(b.blocks + 1, 0);
-    for (const Triangle& t : all) ++(fits(t) ? b.triangle_begin : b.far_triangle_begin)[owner(t) + 1];
-    std::partial_sum(b.triangle_begin.begin(), b.triangle_begin.end(), b.triangle_begin.begin());
-    std::partial_sum(b.far_triangle_begin.begin(), b.far_triangle_begin.end(), b.far_triangle_begin.begin());
-    b.triangles.reserve(b.triangle_begin.back());
-    b.far_triangles.reserve(b.far_triangle_begin.back());
-    for (const Triangle& t : all) {
-      const std::uint32_t base = owner(t) * kBlock;
-      if (fits(t))
-        b.triangles.push_back({{static_cast<std::uint16_t>(t[0] - base), static_cast<std::uint16_t>(t[1] - base),
-                                static_cast<std::uint16_t>(t[2] - base)}});
-      else
-        b.far_triangles.push_back(t);
-    }
+// Triangles, owned by the block of their lowest vertex: as 16-bit offsets from
+// the block's first vertex where they fit, whole where they do not.
+template <class S>
+void group_triangles(Body<S>& b, const TriangleMesh& mesh) {
+  std::vector<Triangle> all;
+  all.reserve(mesh.triangles.size());
+  for (const Triangle& t : mesh.triangles) all.push_back({b.to_internal[t[0]], b.to_internal[t[1]], b.to_internal[t[2]]});
+  auto owner = [](const Triangle& t) { return std::min({t[0], t[1], t[2]}) / kBlock; };
+  std::stable_sort(all.begin(), all.end(), [&](const Triangle& p, const Triangle& q) { return owner(p) < owner(q); });
+  auto fits = [&](const Triangle& t) {
+    const std::uint32_t base = owner(t) * kBlock;
+    return std::max({t[0], t[1], t[2]}) - base <= std::numeric_limits<std::uint16_t>::max();
+  };
+  b.triangle_begin.assign(b.blocks + 1, 0);
+  b.far_triangle_begin.assign(b.blocks + 1, 0);
+  for (const Triangle& t : all) ++(fits(t) ? b.triangle_begin : b.far_triangle_begin)[owner(t) + 1];
+  std::partial_sum(b.triangle_begin.begin(), b.triangle_begin.end(), b.triangle_begin.begin());
+  std::partial_sum(b.far_triangle_begin.begin(), b.far_triangle_begin.end(), b.far_triangle_begin.begin());
+  b.triangles.reserve(b.triangle_begin.back());
+  b.far_triangles.reserve(b.far_triangle_begin.back());
+  for (const Triangle& t : all) {
+    const std::uint32_t base = owner(t) * kBlock;
+    if (fits(t))
+      b.triangles.push_back({{static_cast<std::uint16_t>(t[0] - base), static_cast<std::uint16_t>(t[1] - base),
+                              static_cast<std::uint16_t>(t[2] - base)}});
+    else
+      b.far_triangles.push_back(t);
   }
+}
 
-  // --- blocks -----------------------------------------------------------------
+// Each block's box at rest and the reach of its triangles; room for the awake list.
+template <class S>
+void fit_blocks(Body<S>& b) {
   b.block.resize(b.blocks);
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
     BlockState<S>& s = b.block[blk];
@@ -341,13 +379,17 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     }
     S reach = 0;
     b.for_each_triangle(blk, [&](const Triangle& t) {
-      for (int k = 0; k < 3; ++k) reach = std::max(reach, rest_len(t[k], static_cast<std::int32_t>(t[(k + 1) % 3])));
+      for (int k = 0; k < 3; ++k)
+        reach = std::max(reach, rest_distance(b, t[k], static_cast<std::int32_t>(t[(k + 1) % 3])));
     });
     s.reach = S(1.5) * reach;
   }
   b.awake_list.resize(b.blocks);
+}
 
-  // --- pinned -----------------------------------------------------------------
+// Pinned vertices at their rest position, sorted, once each, grouped by block.
+template <class S>
+void place_pins(Body<S>& b, const BodyOptions& options) {
   for (std::uint32_t p : options.pinned) {
     const std::uint32_t i = b.to_internal[p];
     b.pinned.push_back({i, b.rx[i], b.ry[i], b.rz[i]});
@@ -359,60 +401,101 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
   b.pinned_begin.assign(b.blocks + 1, 0);
   for (const auto& p : b.pinned) ++b.pinned_begin[p.i / kBlock + 1];
   std::partial_sum(b.pinned_begin.begin(), b.pinned_begin.end(), b.pinned_begin.begin());
+}
 
-  if (b.plastic) {
-    for (auto* buf : {&b.srx, &b.sry, &b.srz}) buf->resize(n, S(0), arena);
-    for (std::uint32_t i = 0; i < n; ++i) b.srx[i] = b.rx[i], b.sry[i] = b.ry[i], b.srz[i] = b.rz[i];
-    if (spring_model) {
-      b.slen.resize(b.rest_length.size(), S(0), arena);
-      std::copy_n(b.rest_length.data(), b.rest_length.size(), b.slen.data());
-    }
+// Clay yields its rest shape: the guard keeps the last good one to restore.
+template <class S>
+void copy_rest_shape_for_clay(Body<S>& b) {
+  if (!b.plastic) return;
+  for (auto* buf : {&b.srx, &b.sry, &b.srz}) buf->resize(b.n, S(0), &b.arena);
+  for (std::uint32_t i = 0; i < b.n; ++i) b.srx[i] = b.rx[i], b.sry[i] = b.ry[i], b.srz[i] = b.rz[i];
+  if (has_rest_lengths(b)) {
+    b.slen.resize(b.rest_length.size(), S(0), &b.arena);
+    std::copy_n(b.rest_length.data(), b.rest_length.size(), b.slen.data());
   }
+}
 
-  if constexpr (std::is_same_v<S, float>) {
-    const bool want = options.packed == PackedRecords::always ||
-                      (options.packed == PackedRecords::by_size && b.plastic && n <= kPackedMaxVertices);
-    if (want) {
-      for (auto& buf : b.packed) {
-        buf.resize(8 * static_cast<std::size_t>(n), 0.0f, arena);  // zeros: at rest the velocity and (linear) u are 0
-        if (spring_model)
-          for (std::uint32_t i = 0; i < n; ++i) buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
-      }
-    }
+// The double buffer of packed records (float only), at rest.
+template <class S>
+void allocate_packed_records(Body<S>& b, const BodyOptions& options) {
+  const bool want = std::is_same_v<S, float> &&
+                    (options.packed == PackedRecords::always ||
+                     (options.packed == PackedRecords::by_size && b.plastic && b.n <= kPackedMaxVertices));
+  if (!want) return;
+  for (auto& buf : b.packed) {
+    buf.resize(8 * static_cast<std::size_t>(b.n), S(0), &b.arena);  // zeros: at rest the velocity and (linear) u are 0
+    if (has_rest_lengths(b))
+      for (std::uint32_t i = 0; i < b.n; ++i) buf[8 * i + 0] = b.x[i], buf[8 * i + 1] = b.y[i], buf[8 * i + 2] = b.z[i];
   }
+}
 
-  // The ring's far table (elastic float bodies without the packed buffers):
-  // the far ends that a row reads after their own block has stepped (blocks
-  // step in ascending order, so the ends behind).
-  if (std::is_same_v<S, float> && b.packed[0].empty() && !b.plastic && options.ring) {
-    auto behind = [&](const kernel::Overflow<S>& o) { return !near(o.i, o.j) && static_cast<std::uint32_t>(o.j) < o.i; };
-    for (const auto& o : b.overflow)
-      if (behind(o)) b.far_vertices.push_back(static_cast<std::uint32_t>(o.j));
-    std::sort(b.far_vertices.begin(), b.far_vertices.end());
-    b.far_vertices.erase(std::unique(b.far_vertices.begin(), b.far_vertices.end()), b.far_vertices.end());
-    b.far_vertices.shrink_to_fit();
-    for (auto& o : b.overflow)
-      if (!near(o.i, o.j) && !behind(o))
-        o.far = kernel::kFarAhead;
-      else if (behind(o))
-        o.far = static_cast<std::uint32_t>(
-            std::lower_bound(b.far_vertices.begin(), b.far_vertices.end(), static_cast<std::uint32_t>(o.j)) -
-            b.far_vertices.begin());
-    b.far_vertex_begin.assign(b.blocks + 1, 0);
-    for (std::uint32_t v : b.far_vertices) ++b.far_vertex_begin[v / kBlock + 1];
-    std::partial_sum(b.far_vertex_begin.begin(), b.far_vertex_begin.end(), b.far_vertex_begin.begin());
-    b.far_records.resize(8 * b.far_vertices.size(), S(0));
-    b.ring_stamp.assign(b.blocks, 0);
-    // A body of fewer blocks than the ring takes the next power of two: every
-    // block its own place, and no more memory than it needs.
-    b.ring_blocks = std::min(kernel::kRingBlocks, std::bit_ceil(b.blocks));
-  }
+// The ring's far table (elastic float bodies without the packed buffers): the
+// far ends that a row reads after their own block has stepped (blocks step in
+// ascending order, so the ends behind).
+template <class S>
+void build_far_table(Body<S>& b, const BodyOptions& options) {
+  if (!(std::is_same_v<S, float> && b.packed[0].empty() && !b.plastic && options.ring)) return;
+  auto behind = [](const kernel::Overflow<S>& o) {
+    return !within_ring_reach(o.i, o.j) && static_cast<std::uint32_t>(o.j) < o.i;
+  };
+  for (const auto& o : b.overflow)
+    if (behind(o)) b.far_vertices.push_back(static_cast<std::uint32_t>(o.j));
+  std::sort(b.far_vertices.begin(), b.far_vertices.end());
+  b.far_vertices.erase(std::unique(b.far_vertices.begin(), b.far_vertices.end()), b.far_vertices.end());
+  b.far_vertices.shrink_to_fit();
+  for (auto& o : b.overflow)
+    if (!within_ring_reach(o.i, o.j) && !behind(o))
+      o.far = kernel::kFarAhead;
+    else if (behind(o))
+      o.far = static_cast<std::uint32_t>(
+          std::lower_bound(b.far_vertices.begin(), b.far_vertices.end(), static_cast<std::uint32_t>(o.j)) -
+          b.far_vertices.begin());
+  b.far_vertex_begin.assign(b.blocks + 1, 0);
+  for (std::uint32_t v : b.far_vertices) ++b.far_vertex_begin[v / kBlock + 1];
+  std::partial_sum(b.far_vertex_begin.begin(), b.far_vertex_begin.end(), b.far_vertex_begin.begin());
+  b.far_records.resize(8 * b.far_vertices.size(), S(0));
+  b.ring_stamp.assign(b.blocks, 0);
+  // A body of fewer blocks than the ring takes the next power of two: every
+  // block its own place, and no more memory than it needs.
+  b.ring_blocks = std::min(kernel::kRingBlocks, std::bit_ceil(b.blocks));
+}
 
+// Per tool slot: room for every block as a candidate and a full grab.
+template <class S>
+void allocate_tool_contacts(Body<S>& b, const BodyOptions& options, int tool_slots) {
   b.tools.resize(static_cast<std::size_t>(std::max(0, tool_slots)));
   for (auto& t : b.tools) {
     t.candidates.resize(b.blocks);
     t.grabs.resize(static_cast<std::size_t>(options.max_grabbed));
   }
+}
+
+}  // namespace
+
+template <class S>
+Body<S> make_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options, int tool_slots) {
+  validate_input(mesh, material, options);
+  Body<S> b;
+  b.material = material;
+  b.plastic = material.plastic;
+  b.n = static_cast<std::uint32_t>(mesh.positions.size());
+  b.blocks = (b.n + kBlock - 1) / kBlock;
+  reserve_arena(b);
+  order_vertices(b, mesh);
+  place_at_rest(b, mesh);
+  {
+    const Csr adj = connect_springs(b, mesh);
+    build_ell(b, adj);
+    link_blocks(b, adj);
+  }
+  find_last_readers(b);
+  group_triangles(b, mesh);
+  fit_blocks(b);
+  place_pins(b, options);
+  copy_rest_shape_for_clay(b);
+  allocate_packed_records(b, options);
+  build_far_table(b, options);
+  allocate_tool_contacts(b, options, tool_slots);
   return b;
 }
 
