@@ -55,44 +55,76 @@ constexpr std::uint32_t kPackedMaxVertices = 65536;
 
 template <class S>
 kernel::ForceArgs<S> Body<S>::network_args() const {
+  const BodyNetwork<S>& net = *this;
+  const BodyState<S>& st = *this;
+  const BodyRecords<S>& rec = *this;
   kernel::ForceArgs<S> fa{};
-  fa.x = x.data(), fa.y = y.data(), fa.z = z.data();
-  fa.wx = wx.data(), fa.wy = wy.data(), fa.wz = wz.data();
-  fa.rx = rx.data(), fa.ry = ry.data(), fa.rz = rz.data();
-  fa.nbr = nbr.data(), fa.rest_length = rest_length.data(), fa.stride = n, fa.slots = slots;
-  fa.overflow = overflow.data();
+  fa.x = st.x.data(), fa.y = st.y.data(), fa.z = st.z.data();
+  fa.wx = st.wx.data(), fa.wy = st.wy.data(), fa.wz = st.wz.data();
+  fa.rx = st.rx.data(), fa.ry = st.ry.data(), fa.rz = st.rz.data();
+  fa.nbr = net.nbr.data(), fa.rest_length = net.rest_length.data(), fa.stride = net.n, fa.slots = net.slots;
+  fa.overflow = net.overflow.data();
   if constexpr (std::is_same_v<S, float>)
-    if (!packed[0].empty()) fa.packed = packed[packed_cur].data();
+    if (!rec.packed[0].empty()) fa.packed = rec.packed[rec.packed_cur].data();
   return fa;
 }
 
+namespace {
+
 template <class S>
-std::size_t Body<S>::bytes() const {
-  std::size_t b = sizeof(*this);
-  for (const auto* buf : {&x, &y, &z, &wx, &wy, &wz, &rx, &ry, &rz, &ax, &ay, &az, &srx, &sry, &srz, &slen, &rest_length,
-                          &packed[0], &packed[1]})
+std::size_t bytes_of(const BodyNetwork<S>& net) {
+  return net.nbr.bytes() + net.rest_length.bytes() + net.overflow.capacity() * sizeof(net.overflow[0]) +
+         net.overflow_begin.capacity() * 4 + (net.to_original.capacity() + net.to_internal.capacity()) * 4 +
+         net.triangles.capacity() * sizeof(BlockTriangle) + net.triangle_begin.capacity() * 4 +
+         net.far_triangles.capacity() * sizeof(Triangle) + net.far_triangle_begin.capacity() * 4 +
+         net.pinned.capacity() * sizeof(Pinned<S>) + net.pinned_begin.capacity() * 4 +
+         (net.block_neighbour_begin.capacity() + net.block_neighbours.capacity()) * 4;
+}
+
+template <class S>
+std::size_t bytes_of(const BodyState<S>& st) {
+  std::size_t b = 0;
+  for (const auto* buf : {&st.x, &st.y, &st.z, &st.wx, &st.wy, &st.wz, &st.rx, &st.ry, &st.rz, &st.ax, &st.ay, &st.az})
     b += buf->bytes();
-  b += sx.bytes() + sy.bytes() + sz.bytes() + snapshot_grid.capacity() * sizeof(SnapshotGrid<S>);
-  b += nbr.bytes();
-  b += overflow.capacity() * sizeof(overflow[0]) + overflow_begin.capacity() * 4;
-  b += (far_vertices.capacity() + far_vertex_begin.capacity()) * 4 + far_records.bytes() + ring_stamp.capacity() * 8;
-  b += (to_original.capacity() + to_internal.capacity()) * 4;
-  b += triangles.capacity() * sizeof(BlockTriangle) + triangle_begin.capacity() * 4;
-  b += far_triangles.capacity() * sizeof(Triangle) + far_triangle_begin.capacity() * 4;
-  b += pinned.capacity() * sizeof(Pinned<S>) + pinned_begin.capacity() * 4;
-  b += (block_neighbour_begin.capacity() + block_neighbours.capacity() + awake_list.capacity()) * 4;
-  b += block.capacity() * sizeof(BlockState<S>);
-  b += last_reader.capacity() * 4;
-  for (const auto& t : tools)
-    b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
   return b;
 }
 
 template <class S>
+std::size_t bytes_of(const BodyRecords<S>& rec) {
+  return rec.packed[0].bytes() + rec.packed[1].bytes() +
+         (rec.far_vertices.capacity() + rec.far_vertex_begin.capacity()) * 4 + rec.far_records.bytes() +
+         rec.ring_stamp.capacity() * 8;
+}
+
+template <class S>
+std::size_t bytes_of(const BodyBlocks<S>& bl) {
+  std::size_t b = bl.block.capacity() * sizeof(BlockState<S>) + bl.awake_list.capacity() * 4;
+  for (const auto& t : bl.tools) b += t.candidates.capacity() * 4 + t.grabs.capacity() * sizeof(Grab<S>);
+  return b;
+}
+
+template <class S>
+std::size_t bytes_of(const BodyGuard<S>& g) {
+  return g.sx.bytes() + g.sy.bytes() + g.sz.bytes() + g.snapshot_grid.capacity() * sizeof(SnapshotGrid<S>) +
+         g.srx.bytes() + g.sry.bytes() + g.srz.bytes() + g.slen.bytes();
+}
+
+}  // namespace
+
+template <class S>
+std::size_t Body<S>::bytes() const {
+  return sizeof(*this) + bytes_of(static_cast<const BodyNetwork<S>&>(*this)) + bytes_of(static_cast<const BodyState<S>&>(*this)) +
+         bytes_of(static_cast<const BodyRecords<S>&>(*this)) + bytes_of(static_cast<const BodyBlocks<S>&>(*this)) +
+         bytes_of(static_cast<const BodyGuard<S>&>(*this));
+}
+
+template <class S>
 bool Body<S>::save_positions(std::uint32_t blk) {
-  const std::uint32_t b0 = begin_of(blk), b1 = end_of(blk);
-  const S* src[3] = {x.data(), y.data(), z.data()};
-  std::uint16_t* dst[3] = {sx.data(), sy.data(), sz.data()};
+  const BodyState<S>& st = *this;
+  BodyGuard<S>& guard = *this;
+  const std::uint32_t b0 = this->begin_of(blk), b1 = this->end_of(blk);
+  const S* src[3] = {st.x.data(), st.y.data(), st.z.data()};
+  std::uint16_t* dst[3] = {guard.sx.data(), guard.sy.data(), guard.sz.data()};
   for (int a = 0; a < 3; ++a)
     for (std::uint32_t i = b0; i < b1; ++i)
       if (!std::isfinite(src[a][i])) return false;
@@ -110,14 +142,16 @@ bool Body<S>::save_positions(std::uint32_t blk) {
     for (std::uint32_t i = b0; i < b1; ++i)
       dst[a][i] = static_cast<std::uint16_t>(std::min(S(65535), (src[a][i] - lo) * to_grid + S(0.5)));
   }
-  snapshot_grid[blk] = g;
+  guard.snapshot_grid[blk] = g;
   return true;
 }
 
 template <class S>
 std::array<S, 3> Body<S>::saved_position(std::uint32_t i) const {
-  const SnapshotGrid<S>& g = snapshot_grid[i / kBlock];
-  return {g.lo[0] + S(sx[i]) * g.step[0], g.lo[1] + S(sy[i]) * g.step[1], g.lo[2] + S(sz[i]) * g.step[2]};
+  const BodyGuard<S>& guard = *this;
+  const SnapshotGrid<S>& g = guard.snapshot_grid[i / kBlock];
+  return {g.lo[0] + S(guard.sx[i]) * g.step[0], g.lo[1] + S(guard.sy[i]) * g.step[1],
+          g.lo[2] + S(guard.sz[i]) * g.step[2]};
 }
 
 namespace {
@@ -316,24 +350,6 @@ void link_blocks(Body<S>& b, const Csr& adj) {
   std::partial_sum(b.block_neighbour_begin.begin(), b.block_neighbour_begin.end(), b.block_neighbour_begin.begin());
 }
 
-// Per block the last block whose forces read it, and how many blocks can wait
-// to integrate at once.
-template <class S>
-void find_last_readers(Body<S>& b) {
-  b.last_reader.resize(b.blocks);
-  std::vector<std::int32_t> opened(b.blocks + 1, 0);  // blocks done but still read by a later one, by difference
-  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
-    std::uint32_t last = blk;
-    for (std::uint32_t e = b.block_neighbour_begin[blk]; e < b.block_neighbour_begin[blk + 1]; ++e)
-      last = std::max(last, b.block_neighbours[e]);
-    b.last_reader[blk] = last;
-    ++opened[blk], --opened[last];  // waiting after the forces of blocks blk .. last − 1
-  }
-  std::int32_t waiting = 0, most = 0;
-  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) most = std::max(most, waiting += opened[blk]);
-  b.pending_capacity = static_cast<std::uint32_t>(most) + 1;
-}
-
 // Triangles, owned by the block of their lowest vertex: as 16-bit offsets from
 // the block's first vertex where they fit, whole where they do not.
 template <class S>
@@ -488,7 +504,6 @@ Body<S> make_body(const TriangleMesh& mesh, const Material& material, const Body
     build_ell(b, adj);
     link_blocks(b, adj);
   }
-  find_last_readers(b);
   group_triangles(b, mesh);
   fit_blocks(b);
   place_pins(b, options);

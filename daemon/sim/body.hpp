@@ -29,7 +29,7 @@ struct BodyOptions {
   // Elastic float bodies without packed records step through the ring of
   // packed records (kernel::kRingBlocks) where World runs the AVX2 kernels and
   // a one-pass integrator; false: they gather neighbours from the arrays
-  // instead, through the acceleration pool (benchmarks compare the two).
+  // instead, on the arrays path (benchmarks compare the two).
   bool ring = true;
 };
 
@@ -80,66 +80,35 @@ struct ToolContact {
   bool grabbing = false;
 };
 
-template <class S>
-struct Body {
-  Material material;
-  bool plastic = false;
-  std::uint32_t n = 0;       // vertices
-  std::uint32_t blocks = 0;  // ceil(n / kBlock)
-  std::uint32_t springs = 0; // unique edges with two distinct ends
-  int slots = 0;             // ELL width
-  int max_degree = 0;
-  S mean_edge = 0;           // mean rest edge length (clay yield scale)
-  double extent = 0;         // rest bounding-box diagonal
+// A body's data, split by who touches it. Body (below) holds all of them;
+// functions take the part they need.
 
+// The memory the per-vertex arrays of big bodies (kArenaMinVertices and up)
+// live in (see PageArena). The first base of Body: it outlives every array.
+struct BodyMemory {
+  PageArena arena;
+};
+
+// The spring network and mesh, built by make_body and read by the kernels
+// and the narrow phase; only clay's yield writes it (rest lengths).
+template <class S>
+struct BodyNetwork {
+  std::uint32_t n = 0;         // vertices
+  std::uint32_t blocks = 0;    // ceil(n / kBlock)
+  std::uint32_t springs = 0;   // unique edges with two distinct ends
+  int slots = 0;               // ELL width
+  int max_degree = 0;
+  S mean_edge = 0;             // mean rest edge length (clay yield scale)
+  double extent = 0;           // rest bounding-box diagonal
   std::vector<std::uint32_t> to_original;  // internal → original vertex index
   std::vector<std::uint32_t> to_internal;  // original → internal
-
-  // Big bodies (kArenaMinVertices and up) keep their per-vertex arrays below
-  // in one huge-page region (see PageArena); declared before them, it outlives them.
-  PageArena arena;
-  AlignedBuffer<S> x, y, z;     // positions
-  AlignedBuffer<S> wx, wy, wz;  // last steps x − x_prev (position Verlet) or velocities
-  AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
-  // Accelerations between the force and integrate passes of every vertex:
-  // only for velocity Verlet (it keeps a(t) from one step to the next) and
-  // clay on the unfused path (every block yields before any moves). Other
-  // bodies keep the accelerations of the few blocks waiting to integrate in
-  // World's pool (see last_reader).
-  AlignedBuffer<S> ax, ay, az;
-  // Last good positions (the blow-up guard restores these), 16 bits per
-  // coordinate on a grid over the block's box at the snapshot: a restore lands
-  // within 1/131070 of that box of the saved state, in half the bytes of a copy.
-  AlignedBuffer<std::uint16_t> sx, sy, sz;
-  std::vector<SnapshotGrid<S>> snapshot_grid;  // per block
-  AlignedBuffer<S> srx, sry, srz, slen;  // clay only: last good rest shape
-  // Float spring model: {x,y,z,0,vx,vy,vz,0} per vertex for the AVX2 gathers, double
-  // buffered so a block can be integrated right after its forces while later
-  // blocks still gather the old state from the other buffer.
-  AlignedBuffer<S> packed[2];
-  int packed_cur = 0;
-
   // Slot s of vertex i: neighbour − i, slot-major, slots × n. Springs whose
   // ends lie more than kernel::kRingReach blocks apart go to the overflow list.
   // (So do a high-degree vertex's springs past the ELL width.)
   AlignedBuffer<std::int16_t> nbr;
-  AlignedBuffer<S> rest_length;     // slots × n (spring model only)
+  AlignedBuffer<S> rest_length;  // slots × n (spring model only)
   std::vector<kernel::Overflow<S>> overflow;
   std::vector<std::uint32_t> overflow_begin;  // blocks + 1
-  // The ring of packed records (elastic float bodies without the packed buffers; see
-  // kernel::ForceArgs::ring_mask): the vertices that overflow springs reach
-  // from beyond kRingReach blocks (Overflow::far), grouped by block, sorted;
-  // their records of the substep's start, saved when their block is packed into
-  // the ring; and per block the ring_epoch (one per substep) it was last packed in.
-  std::vector<std::uint32_t> far_vertices;
-  std::vector<std::uint32_t> far_vertex_begin;  // blocks + 1
-  AlignedBuffer<S> far_records;                 // 8 per far vertex
-  std::vector<std::uint64_t> ring_stamp;        // blocks
-  std::uint64_t ring_epoch = 0;
-  // Its ring's size, min(kRingBlocks, blocks rounded up to 2^k); 0: the body
-  // never takes the ring (and has none of the above).
-  std::uint32_t ring_blocks = 0;
-
   // Triangles, grouped by owning block (the block of their lowest vertex), as
   // their vertices' offsets from the block's first vertex: 6 bytes instead of
   // 12. The few that span farther (seams of the Morton order) stay whole.
@@ -147,36 +116,12 @@ struct Body {
   std::vector<std::uint32_t> triangle_begin;      // blocks + 1
   std::vector<Triangle> far_triangles;            // internal indices
   std::vector<std::uint32_t> far_triangle_begin;  // blocks + 1
-  std::vector<Pinned<S>> pinned;              // sorted by index
-  std::vector<std::uint32_t> pinned_begin;    // blocks + 1
+  std::vector<Pinned<S>> pinned;                  // sorted by index
+  std::vector<std::uint32_t> pinned_begin;        // blocks + 1
   std::vector<std::uint32_t> block_neighbour_begin, block_neighbours;  // CSR of blocks sharing a spring
-  // Per block: the last block (in index order) whose forces read its state,
-  // itself or a spring neighbour. A block may integrate in place once the
-  // forces of every block up to that one are done; pending_capacity bounds how
-  // many wait at once (all awake, in index order), plus one.
-  std::vector<std::uint32_t> last_reader;
-  std::uint32_t pending_capacity = 1;
-
-  std::vector<BlockState<S>> block;
-  std::vector<std::uint32_t> awake_list;  // capacity = blocks
-  std::uint32_t awake_count = 0;
-  std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
-
-  std::vector<ToolContact<S>> tools;      // one per tool slot of the world
-
-  // Guard state.
-  double energy = 0;        // last measured total energy, J
-  double energy_ref = 0;    // the most energy tool input has put in since the mesh last slept
-  double energy_floor = 0;  // noise floor of the energy test
-  double speed_limit = 0;   // m/s: a vertex faster than this is divergence (set by World)
-  std::uint64_t blowups = 0;
-  int boost = 1;            // substep multiplier after a blow-up
-  int snapshot_age = 0;
-  bool external_input = false;  // set_state() touched it since the last tick
 
   std::uint32_t begin_of(std::uint32_t b) const { return b * kernel::kBlock; }
   std::uint32_t end_of(std::uint32_t b) const { return std::min(n, (b + 1) * kernel::kBlock); }
-  std::size_t bytes() const;  // everything this body owns
   // Block blk's triangles as internal indices: the near ones in build order, then the far ones.
   template <class F>
   [[gnu::always_inline]] void for_each_triangle(std::uint32_t blk, F&& f) const {
@@ -185,6 +130,82 @@ struct Body {
       f(Triangle{base + triangles[t].v[0], base + triangles[t].v[1], base + triangles[t].v[2]});
     for (std::uint32_t t = far_triangle_begin[blk]; t < far_triangle_begin[blk + 1]; ++t) f(far_triangles[t]);
   }
+};
+
+// The state the step advances, the narrow phase pushes and the guard restores.
+template <class S>
+struct BodyState {
+  kernel::Velocity velocity = kernel::Velocity::step;  // what wx..wz hold (sim/motion.hpp); World sets it
+  AlignedBuffer<S> x, y, z;     // positions
+  AlignedBuffer<S> wx, wy, wz;  // velocities, as `velocity` says: the last step x − x_prev, or v
+  AlignedBuffer<S> rx, ry, rz;  // rest positions (yield in clay)
+  // Accelerations between the force and integrate passes, for bodies on the
+  // arrays path only (sim/stepper.hpp); the fused paths keep them in registers.
+  AlignedBuffer<S> ax, ay, az;
+};
+
+// Packed copies of the state for the fused kernels: the records path's
+// double buffer, and the ring path's bookkeeping. Touched by the steppers
+// only, and kept current by sim/motion.hpp's sync_records.
+template <class S>
+struct BodyRecords {
+  // Float: {x,y,z,0,vx,vy,vz,0} per vertex (linear model: x − r), double
+  // buffered so a block can be integrated right after its forces while later
+  // blocks still read the old state from the other buffer.
+  AlignedBuffer<S> packed[2];
+  int packed_cur = 0;
+  // The ring (kernel::ForceArgs::ring_mask): the vertices that overflow
+  // springs reach from beyond kRingReach blocks (Overflow::far), grouped by
+  // block, sorted; their records of the substep's start, saved when their
+  // block is packed into the ring; and per block the ring_epoch (one per
+  // substep) it was last packed in.
+  std::vector<std::uint32_t> far_vertices;
+  std::vector<std::uint32_t> far_vertex_begin;  // blocks + 1
+  AlignedBuffer<S> far_records;                 // 8 per far vertex
+  std::vector<std::uint64_t> ring_stamp;        // blocks
+  std::uint64_t ring_epoch = 0;
+  // Its ring's size, min(kRingBlocks, blocks rounded up to 2^k); 0: the body
+  // never takes the ring (and has none of the above).
+  std::uint32_t ring_blocks = 0;
+};
+
+// Blocks as the broadphase and the sleeping see them, and each tool's
+// contact with the body.
+template <class S>
+struct BodyBlocks {
+  std::vector<BlockState<S>> block;
+  std::vector<std::uint32_t> awake_list;  // capacity = blocks
+  std::uint32_t awake_count = 0;          // this tick's awake list
+  std::uint32_t awake_blocks = 0;         // blocks awake now
+  std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
+  std::vector<ToolContact<S>> tools;      // one per tool slot of the world
+};
+
+// The blow-up guard: the last good state and the energy bookkeeping.
+template <class S>
+struct BodyGuard {
+  // Last good positions, 16 bits per coordinate on a grid over the block's
+  // box at the snapshot: a restore lands within 1/131070 of that box of the
+  // saved state, in half the bytes of a copy.
+  AlignedBuffer<std::uint16_t> sx, sy, sz;
+  std::vector<SnapshotGrid<S>> snapshot_grid;  // per block
+  AlignedBuffer<S> srx, sry, srz, slen;        // clay only: last good rest shape
+  double energy = 0;        // last measured total energy, J
+  double energy_ref = 0;    // the most energy tool input has put in since the mesh last slept
+  double energy_floor = 0;  // noise floor of the energy test
+  double speed_limit = 0;   // m/s: a vertex faster than this is divergence (set by World)
+  std::uint64_t blowups = 0;
+  int boost = 1;            // substep multiplier after a blow-up
+  int snapshot_age = 0;
+  bool external_input = false;  // set_state() touched it since the last tick
+};
+
+template <class S>
+struct Body : BodyMemory, BodyNetwork<S>, BodyState<S>, BodyRecords<S>, BodyBlocks<S>, BodyGuard<S> {
+  Material material;
+  bool plastic = false;
+
+  std::size_t bytes() const;  // everything this body owns
   // The arrays the kernels read: state, rest shape, springs and the current
   // packed records (float bodies that have them). Material constants and
   // outputs are the caller's.

@@ -11,10 +11,15 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "sim/body.hpp"
+#include "sim/contact.hpp"
+#include "sim/grab.hpp"
+#include "sim/stepper.hpp"
+#include "sim/tool_track.hpp"
 #include "sim/material.hpp"
 #include "sim/settings.hpp"
 #include "sim/tool.hpp"
@@ -77,6 +82,8 @@ class World {
   std::size_t body_count() const { return bodies_.size(); }
   const Body<S>& body(std::size_t i) const { return bodies_[i]; }
   int substeps(std::size_t i) const;
+  // How body i steps (stepper.hpp), decided once in add_body.
+  StepPath step_path(std::size_t i) const { return paths_[i]; }
   const SimSettings& settings() const { return settings_; }
   std::uint64_t tick() const { return tick_; }
 
@@ -95,66 +102,33 @@ class World {
   std::size_t bytes() const;
 
  private:
-  struct ToolTrack {
-    bool active = false;
-    bool known = false;     // a pose from the previous tick exists
-    bool grab = false, grab_prev = false;
-    ToolShape shape = ToolShape::sphere;
-    S radius = 0;
-    Vec3d c0{}, c1{}, a0{}, a1{};  // centre and half axis at the start and end of the tick
-    std::array<S, 3> lo{}, hi{};   // swept box
-    std::uint32_t prev_contacts = 0;
-    Vec3d force{};                 // accumulated this tick
-    std::uint32_t contacts = 0;
-  };
-
+  void read_tools(std::span<const Tool> tools);
+  void report_tools();
   void step_body(std::uint32_t bi);
-  void broadphase(Body<S>& b, std::uint32_t t);
-  void collide(Body<S>& b, std::uint32_t t, double alpha0, double alpha1, S dts);
-  void push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& delta, const std::array<S, 3>& normal,
-                   S tool_normal_speed, S dts, ToolTrack& tr);
-  void apply_pins(Body<S>& b, std::uint32_t blk, S inv_dt);
-  void pack_vertex(Body<S>& b, std::uint32_t i, S inv_dt);
-  void wake(Body<S>& b, std::uint32_t blk);
-  void sleep(Body<S>& b, std::uint32_t blk);
-  void refit(Body<S>& b, std::uint32_t blk);
-  static S anchor_limit(const Body<S>& b);
-  static std::size_t yield_mask_bytes(const Body<S>& b);
-  void plastic_flow(Body<S>& b, std::uint32_t blk, std::uint8_t* mask);
-  void plastic_apply(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const S* records);
-  void snapshot(Body<S>& b, std::uint32_t blk);
-  void restore(Body<S>& b);
-  void update_box(Body<S>& b);
+  void find_contacts(Body<S>& b);
+  Substep<S> begin_tick(std::uint32_t bi);
+  void resolve_contacts(Body<S>& b, const Substep<S>& s);
+  void judge(std::uint32_t bi, bool finite);
+  void settle(Body<S>& b, double energy);
+  void log_changes(std::uint32_t bi);
 
   SimSettings settings_;
   std::uint32_t tool_slots_;
   std::vector<Body<S>> bodies_;
+  std::vector<StepPath> paths_;                       // per body, chosen in add_body
+  std::vector<std::unique_ptr<Stepper<S>>> steppers_;  // per body
   std::vector<int> base_substeps_;
-  std::vector<std::uint32_t> awake_total_;  // per body: blocks awake
-  std::vector<ToolTrack> tracks_;
+  std::vector<ToolTrack<S>> tracks_;
   std::vector<ToolFeedback> feedback_;
   std::vector<ChangeRange> changes_;
   std::size_t change_count_ = 0;
-  std::vector<double> pe_scratch_;  // per awake block, last substep's potential energy
-  std::vector<std::uint8_t> yield_masks_;  // clay: yield marks per awake block (yield_mask_bytes each)
-  // Accelerations of blocks whose forces are done and whose integration waits
-  // for the last block that reads them (bodies without their own ax..az):
-  // slot k holds ax, ay, az of kBlock vertices at 3·kBlock·k. Sized for the
-  // largest pending_capacity.
-  struct Pending {
-    std::uint32_t q, slot;  // awake-list index, pool slot
-  };
-  AlignedBuffer<S> acc_pool_;
-  // The ring of packed records that bodies with a ring step through, one at a
-  // time (kernel::kRingBlocks blocks; ForceArgs::ring_mask).
-  AlignedBuffer<S> ring_;
-  std::vector<std::uint32_t> acc_free_;  // free slots (a stack)
-  std::vector<Pending> pending_;
-  // Narrow phase: per vertex, which faces of the sweep's tool box it lies beyond;
-  // valid for a block whose stamp equals the epoch (one epoch per sweep).
-  std::vector<std::uint8_t> outcode_;
-  std::vector<std::uint32_t> outcode_stamp_;
-  std::uint32_t outcode_epoch_ = 0;
+  // Scratch sized in add_body for the largest body (the step never allocates).
+  std::vector<double> potential_;          // per awake block, the last substep's potential energy
+  std::vector<std::uint8_t> yield_masks_;  // clay: yield marks per awake block
+  AlignedBuffer<S> scratch_;               // accelerations of one block (the fused paths' pieces)
+  AlignedBuffer<float> ring_;              // the ring of packed records bodies on the ring path step through in turn
+  GrabSprings<S> grabs_;
+  NarrowPhase<S> narrow_;
   TickStats stats_;
   std::uint64_t tick_ = 0;
   std::uint64_t blowups_total_ = 0;

@@ -314,27 +314,11 @@ TEST(Layout, SnapshotComesBackWithinItsGrid) {
   EXPECT_EQ(b.saved_position(5), before) << "a block with a NaN keeps its older snapshot";
 }
 
-// A block integrates once its last reader has its forces: last_reader is
-// the largest block index among itself and its spring neighbours, and
-// pending_capacity bounds the blocks that wait at once (all awake, in order).
-// Only velocity Verlet and clay keep accelerations for every vertex.
-TEST(Layout, BlocksWaitOnlyForTheirLastReader) {
-  const TriangleMesh sphere = make_icosphere(0.1f, 6);
-  const Body<float> b = make_body<float>(sphere, Material{}, BodyOptions{}, 1);
-  std::uint32_t most = 0;
-  for (std::uint32_t k = 0; k < b.blocks; ++k) {
-    std::uint32_t want = k;
-    for (std::uint32_t e = b.block_neighbour_begin[k]; e < b.block_neighbour_begin[k + 1]; ++e)
-      want = std::max(want, b.block_neighbours[e]);
-    EXPECT_EQ(b.last_reader[k], want);
-    std::uint32_t waiting = 0;  // after the forces of block k
-    for (std::uint32_t j = 0; j <= k; ++j) waiting += b.last_reader[j] > k;
-    most = std::max(most, waiting);
-  }
-  EXPECT_EQ(b.pending_capacity, most + 1);
-  EXPECT_GT(most, 0u) << "Morton seams: some blocks must wait";
-  EXPECT_LT(b.pending_capacity, b.blocks / 4);
-
+// Each body takes one step path, chosen when it is added (stepper.hpp), and
+// only the arrays path keeps accelerations for every vertex.
+TEST(Layout, EachBodyTakesTheStepPathItsOptionsAllow) {
+  const TriangleMesh sphere = make_icosphere(0.1f, 6);  // 40 962 vertices: clay keeps packed records
+  const bool avx2 = kernel::avx2_paths_active();
   for (Integrator integ : {Integrator::position_verlet, Integrator::symplectic_euler, Integrator::velocity_verlet})
     for (bool clay : {false, true}) {
       SimSettings s;
@@ -343,9 +327,22 @@ TEST(Layout, BlocksWaitOnlyForTheirLastReader) {
       Material m;
       m.plastic = clay;
       w.add_body(sphere, m);
-      const bool whole = clay || integ == Integrator::velocity_verlet;
-      EXPECT_EQ(w.body(0).ax.size(), whole ? w.body(0).n : 0u) << "clay " << clay;
+      StepPath want = StepPath::arrays;
+      if (avx2 && integ != Integrator::velocity_verlet) want = clay ? StepPath::records : StepPath::ring;
+      EXPECT_EQ(w.step_path(0), want) << "clay " << clay << " integrator " << int(integ);
+      const bool arrays = want == StepPath::arrays;
+      EXPECT_EQ(w.body(0).ax.size(), arrays ? w.body(0).n : 0u) << "clay " << clay;
+      EXPECT_EQ(w.body(0).ring_blocks > 0, want == StepPath::ring) << "only ring bodies build the far table";
     }
+  World<float> gather(SimSettings{}, 1);
+  BodyOptions no_ring;
+  no_ring.ring = false;
+  gather.add_body(sphere, Material{}, no_ring);
+  EXPECT_EQ(gather.step_path(0), StepPath::arrays);
+  World<double> precise(SimSettings{}, 1);
+  precise.add_body(sphere, Material{});
+  EXPECT_EQ(precise.step_path(0), StepPath::arrays) << "double has neither packed records nor the ring";
+  EXPECT_EQ(precise.body(0).ax.size(), precise.body(0).n);
 }
 
 // Big bodies keep their per-vertex arrays in one huge-page arena (fewer TLB
@@ -366,13 +363,21 @@ TEST(Layout, BigBodiesKeepTheirArraysInOneArena) {
     EXPECT_EQ(big.packed[1].empty(), !clay);
     if (clay) {
       EXPECT_TRUE(big.arena.contains(big.packed[1].data()));
-      EXPECT_TRUE(big.arena.contains(big.az.data()));
       EXPECT_TRUE(big.arena.contains(big.slen.data()));
+    }
+    if (w.step_path(0) == StepPath::arrays) {
+      EXPECT_TRUE(big.arena.contains(big.az.data()));
     }
     EXPECT_EQ(big.arena.capacity(), (big.arena.used() + 4095) / 4096 * 4096) << "trimmed after add_body";
     EXPECT_EQ(w.body(1).arena.capacity(), 0u);
     EXPECT_FALSE(w.body(1).arena.contains(w.body(1).x.data()));
   }
+  SimSettings verlet;
+  verlet.integrator = Integrator::velocity_verlet;  // the arrays path: accelerations for every vertex
+  World<float> w(verlet, 1);
+  w.add_body(make_icosphere(0.1f, 6), Material{});
+  ASSERT_EQ(w.step_path(0), StepPath::arrays);
+  EXPECT_TRUE(w.body(0).arena.contains(w.body(0).az.data()));
 }
 
 // A spring whose ends lie more than kRingReach blocks apart in the Morton
