@@ -50,10 +50,11 @@ for args in cases:
 # --records picks the layout, and says which it asked for ("on" needs AVX2, so only "off" is checked).
 d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", "off", "--impl", "fast",
                "--steps", "5", "--repeats", "1", "--json"]))[0]
-assert d["records"] == "off" and d["kernel"] in ("avx2-ring", "portable"), d  # portable: no AVX2, no ring
+assert d["records"] == "off" and d["kernel"] in ("avx2-ring", "portable-arrays"), d  # no AVX2: no ring
+assert d["path"] == d["kernel"].split("-", 1)[1], d
 d = lines(run(["throughput", "--mesh", "builtin:icosphere:2", "--records", "off", "--ring", "off", "--impl", "fast",
                "--steps", "5", "--repeats", "1", "--json"]))[0]
-assert d["ring"] == "off" and d["kernel"] in ("avx2-gather", "portable"), d
+assert d["ring"] == "off" and d["kernel"] in ("avx2-arrays", "portable-arrays"), d
 
 for args, word in [(["--mesh", "builtin:nothing"], "builtin:nothing"), (["--model", "foam"], "--model"),
                    (["--steps", "0"], "--steps"), (["--records", "on", "--precision", "double"], "--records"),

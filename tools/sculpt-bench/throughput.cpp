@@ -150,16 +150,11 @@ nlohmann::json run_fast(const sim::TriangleMesh& mesh, const sim::Material& mate
   nlohmann::json j;
   j["substeps"] = world.substeps(0);
   j["clone"] = sim::kernel::active_clone();
-  // Which force kernel ran: packed records, the ring of records (float
-  // without records; the clones' version without AVX2), lane-by-lane AVX2
-  // loads from the arrays (--ring off), or the compiler's clones (double).
+  // How the body stepped (sim/stepper.hpp), and whose kernels ran it: the
+  // hand-written AVX2 ones or the compiler's clones (double, no AVX2).
   const bool avx2 = sim::kernel::avx2_paths_active() && std::is_same_v<S, float>;  // AVX2 CPU, testing knob off
-  const sim::Body<S>& body = world.body(0);
-  const bool ring = body.ring_epoch > 0;  // it stepped through the ring
-  j["kernel"] = ring    ? (avx2 ? "avx2-ring" : "portable-ring")
-                : !avx2 ? "portable"
-                : body.packed[0].empty() ? "avx2-gather"
-                                         : "avx2-packed";
+  j["path"] = sim::name(world.step_path(0));
+  j["kernel"] = std::string(avx2 ? "avx2-" : "portable-") + sim::name(world.step_path(0));
   if (!fast.seconds.empty()) {
     const double per_step = median(fast.seconds) / o.steps;
     j["ms_per_step"] = per_step * 1e3;
