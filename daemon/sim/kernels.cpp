@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "sim/kernel_testing.hpp"
+
 // Build every hot kernel twice, for AVX2 and for plain x86-64, and pick at load
 // time (ifunc). -ffp-contract=off (top-level meson.build) keeps the two clones
 // from fusing multiply-adds differently. SCULPT_SIM_KERNEL_NS lets a test build
@@ -661,8 +663,8 @@ const bool g_has_avx2 = detect_avx2();
 
 }  // namespace
 
-void force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
-void force_block_pieces(bool on) { g_block_pieces.store(on, std::memory_order_relaxed); }
+void testing::force_portable(bool on) { g_portable.store(on, std::memory_order_relaxed); }
+void testing::force_block_pieces(bool on) { g_block_pieces.store(on, std::memory_order_relaxed); }
 
 bool avx2_paths_active() {
 #if defined(__x86_64__) && !defined(SCULPT_SIM_NO_CLONES)
