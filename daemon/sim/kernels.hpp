@@ -170,14 +170,9 @@ void outcodes(const float* x, const float* y, const float* z, std::uint32_t begi
 void outcodes(const double* x, const double* y, const double* z, std::uint32_t begin, std::uint32_t end,
               const double* lo, const double* hi, std::uint8_t* out);
 
-// Testing knob: never take the hand-written AVX2 paths, packed or gathering
-// (the portable clones still run).
-void force_portable(bool on);
-// Testing and benchmark knob: run whole blocks of the fused pass as separate
-// pieces (forces, integrate, pack), as before the one-pass block kernel.
-void force_block_pieces(bool on);
-// Whether the hand-written AVX2 paths run (AVX2 CPU, force_portable off): the
-// fused pass and forces() from packed records or lane by lane from the arrays.
+// Whether the hand-written AVX2 paths run (AVX2 CPU, not switched off by
+// kernel_testing.hpp): the fused pass and forces() from packed records or lane
+// by lane from the arrays.
 bool avx2_paths_active();
 
 // Which clone the CPU runs ("avx2" or "default"), for the benchmark report.

@@ -8,6 +8,7 @@
 
 #include "sim/baseline.hpp"
 #include "sim/body.hpp"
+#include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
 #include "sim/world.hpp"
@@ -33,15 +34,13 @@ void BM_StepAllAwake(benchmark::State& state) {
   w.add_body(mesh, Material{});
   w.wake_all(0);
   // range(1): 0 = auto (one-pass blocks), 1 = portable kernels, 2 = the fused pass in pieces.
-  kernel::force_portable(state.range(1) == 1);
-  kernel::force_block_pieces(state.range(1) == 2);
+  const kernel::testing::ScopedPortable portable_switch(state.range(1) == 1);
+  const kernel::testing::ScopedBlockPieces pieces_switch(state.range(1) == 2);
   long tick = 0;
   for (auto _ : state) {
     const Tool t = pressing(tick++);
     w.step({&t, 1});
   }
-  kernel::force_portable(false);
-  kernel::force_block_pieces(false);
   state.counters["vertices"] = static_cast<double>(mesh.positions.size());
   state.counters["ns_per_vertex_step"] = benchmark::Counter(
       static_cast<double>(state.iterations()) * mesh.positions.size() * w.substeps(0),
@@ -134,8 +133,8 @@ void BM_StepClaySculpting(benchmark::State& state) {
   Material clay;
   clay.plastic = true;
   w.add_body(make_icosphere(0.1f, static_cast<int>(state.range(0))), clay);
-  kernel::force_portable(state.range(1) == 1);
-  kernel::force_block_pieces(state.range(1) == 2);
+  const kernel::testing::ScopedPortable portable_switch(state.range(1) == 1);
+  const kernel::testing::ScopedBlockPieces pieces_switch(state.range(1) == 2);
   long tick = 0;
   for (auto _ : state) {
     const long phase = tick++ % 400;  // 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out
@@ -146,8 +145,6 @@ void BM_StepClaySculpting(benchmark::State& state) {
     t.grab = phase >= 200;
     w.step({&t, 1});
   }
-  kernel::force_portable(false);
-  kernel::force_block_pieces(false);
   state.SetLabel(state.range(1) == 1 ? "portable" : state.range(1) == 2 ? "pieces" : "auto");
 }
 BENCHMARK(BM_StepClaySculpting)->Args({7, 0})->Args({6, 0})->Args({6, 2})->Args({6, 1})->Unit(benchmark::kMicrosecond);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim_test_util.hpp"
 
@@ -64,10 +65,10 @@ TEST(Determinism, SameInputsSameBits) {
 // The AVX2 packed-gather path and the portable kernels (target clones) do the
 // same IEEE operations in the same order: identical bits, not just close.
 TEST(Determinism, Avx2PathMatchesPortableKernels) {
-  kernel::force_portable(true);
+  kernel::testing::force_portable(true);
   const std::uint64_t portable = scripted_run(Integrator::position_verlet);
   const std::uint64_t portable_se = scripted_run(Integrator::symplectic_euler);
-  kernel::force_portable(false);
+  kernel::testing::force_portable(false);
   EXPECT_EQ(portable, scripted_run(Integrator::position_verlet));
   EXPECT_EQ(portable_se, scripted_run(Integrator::symplectic_euler));
 }
@@ -113,19 +114,19 @@ ClayGrabRun clay_grab_run() {
 }
 
 TEST(Determinism, FusedClayYieldsAndGrabsMatchPortableKernels) {
-  kernel::force_portable(true);
+  kernel::testing::force_portable(true);
   const ClayGrabRun portable = clay_grab_run();
-  kernel::force_portable(false);
+  kernel::testing::force_portable(false);
   if (!kernel::avx2_paths_active()) GTEST_SKIP() << "no AVX2 here: the fused pass cannot run";
   EXPECT_GT(portable.held_at_end, 0u) << "the grab must still hold vertices when it has pulled out";
   EXPECT_NE(portable.rest_after, portable.rest_before) << "the clay must have yielded";
   for (bool pieces : {false, true}) {
-    kernel::force_block_pieces(pieces);
+    kernel::testing::force_block_pieces(pieces);
     const ClayGrabRun r = clay_grab_run();
     EXPECT_EQ(r.positions, portable.positions) << (pieces ? "pieces" : "fused");
     EXPECT_EQ(r.rest_after, portable.rest_after) << (pieces ? "pieces" : "fused");
   }
-  kernel::force_block_pieces(false);
+  kernel::testing::force_block_pieces(false);
 }
 
 // A cone with 400 rim vertices: the apex and the base centre have degree 400+,
@@ -169,14 +170,14 @@ TEST(Determinism, OneBlockPassMatchesPortableKernelsWithOverflow) {
   for (Integrator i : {Integrator::position_verlet, Integrator::symplectic_euler})
     for (ForceModel m : {ForceModel::spring, ForceModel::linear}) {
       bool overflow = false;
-      kernel::force_portable(true);
+      kernel::testing::force_portable(true);
       const std::uint64_t portable = big_cone_run(i, m, overflow);
-      kernel::force_portable(false);
+      kernel::testing::force_portable(false);
       EXPECT_TRUE(overflow) << "the scene must put overflow entries in a whole block";
       EXPECT_EQ(portable, big_cone_run(i, m, overflow));
-      kernel::force_block_pieces(true);
+      kernel::testing::force_block_pieces(true);
       EXPECT_EQ(portable, big_cone_run(i, m, overflow));
-      kernel::force_block_pieces(false);
+      kernel::testing::force_block_pieces(false);
     }
 }
 
@@ -191,7 +192,7 @@ TEST(Determinism, FarSpringsSameBitsOnEveryPath) {
   }
   for (bool clay : {false, true}) {
     auto run = [&](PackedRecords records, bool portable) {
-      kernel::force_portable(portable);
+      kernel::testing::force_portable(portable);
       World<float> w(SimSettings{}, 1);
       Material m;
       m.plastic = clay;
@@ -207,7 +208,7 @@ TEST(Determinism, FarSpringsSameBitsOnEveryPath) {
         t.position = {top[0], top[1] - 0.002 * n, top[2]};
         w.step({&t, 1});
       }
-      kernel::force_portable(false);
+      kernel::testing::force_portable(false);
       EXPECT_TRUE(test::all_finite(w));
       return w.hash();
     };
@@ -234,8 +235,8 @@ TEST(Determinism, RingSameBitsOnEveryPathWithSleepGrabsAndPins) {
   for (Integrator integrator : {Integrator::position_verlet, Integrator::symplectic_euler})
     for (ForceModel model : {ForceModel::spring, ForceModel::linear}) {
       auto run = [&](PackedRecords records, Portable portable, bool pieces, std::uint64_t* epochs = nullptr) {
-        kernel::force_portable(portable == Portable::before_add);
-        kernel::force_block_pieces(pieces);
+        kernel::testing::force_portable(portable == Portable::before_add);
+        kernel::testing::force_block_pieces(pieces);
         SimSettings s;
         s.integrator = integrator;
         World<float> w(s, 2);
@@ -245,7 +246,7 @@ TEST(Determinism, RingSameBitsOnEveryPathWithSleepGrabsAndPins) {
         options.packed = records;
         options.pinned = pins;
         w.add_body(torus, m, options);
-        if (portable == Portable::after_add) kernel::force_portable(true);
+        if (portable == Portable::after_add) kernel::testing::force_portable(true);
         Tool push, grab;
         push.radius = 0.03;
         grab.radius = 0.02;
@@ -258,8 +259,8 @@ TEST(Determinism, RingSameBitsOnEveryPathWithSleepGrabsAndPins) {
           w.step(tools);
           partly_awake += w.stats().awake_blocks > 0 && w.stats().awake_blocks < w.body(0).blocks;
         }
-        kernel::force_portable(false);
-        kernel::force_block_pieces(false);
+        kernel::testing::force_portable(false);
+        kernel::testing::force_block_pieces(false);
         EXPECT_TRUE(test::all_finite(w));
         EXPECT_GT(partly_awake, 30) << "the press must wake a region, not the torus";
         if (epochs) *epochs = w.body(0).ring_epoch;

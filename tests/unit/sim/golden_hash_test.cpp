@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
 #include "sim/world.hpp"
@@ -93,7 +94,7 @@ std::uint64_t run_elastic(Integrator integrator, PackedRecords records, ForceMod
 
 TEST(Determinism, GoldenHashes) {
   for (bool portable : {false, true}) {
-    kernel::force_portable(portable);
+    const kernel::testing::ScopedPortable portable_switch(portable);
     EXPECT_EQ(run(Integrator::position_verlet, ForceModel::spring), 0xf7b107560496edd0ull);
     EXPECT_EQ(run(Integrator::position_verlet, ForceModel::linear), 0x17d0af615caadcaeull);
     EXPECT_EQ(run(Integrator::symplectic_euler, ForceModel::spring), 0x12a043c34a76d029ull);
@@ -105,7 +106,6 @@ TEST(Determinism, GoldenHashes) {
       EXPECT_EQ(run_elastic(Integrator::position_verlet, records, ForceModel::linear), 0xa4174e3d4a6ef1e9ull);
     }
   }
-  kernel::force_portable(false);
   RecordProperty("clone", kernel::active_clone());
 }
 

@@ -9,18 +9,13 @@
 #include <random>
 #include <vector>
 
+#include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 
 namespace sculpt::sim {
 namespace {
 
 using kernel::kBlock;
-
-// Restores the portable knob whatever happens in a test.
-struct PortableKnob {
-  explicit PortableKnob(bool on) { kernel::force_portable(on); }
-  ~PortableKnob() { kernel::force_portable(false); }
-};
 
 TEST(Kernels, OutcodesAreOneBitPerFaceOnEveryPath) {
   std::mt19937 rng(7);
@@ -34,7 +29,7 @@ TEST(Kernels, OutcodesAreOneBitPerFaceOnEveryPath) {
   x[9] = std::numeric_limits<float>::quiet_NaN();
   y[10] = std::numeric_limits<float>::infinity(), z[11] = -std::numeric_limits<float>::infinity();
   for (bool portable : {false, true}) {
-    PortableKnob knob(portable);
+    const kernel::testing::ScopedPortable portable_switch(portable);
     std::vector<std::uint8_t> oc(n, 0xff);
     kernel::outcodes(x.data(), y.data(), z.data(), 2, n, lo, hi, oc.data());
     EXPECT_EQ(oc[0], 0xff) << "wrote outside [begin, end)";
@@ -82,7 +77,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
   a.x = x.data(), a.y = y.data(), a.z = z.data(), a.rx = rx.data(), a.ry = ry.data(), a.rz = rz.data();
   a.nbr = nbr.data(), a.rest_length = rest.data(), a.stride = n, a.slots = slots;
   for (bool portable : {false, true}) {
-    PortableKnob knob(portable);
+    const kernel::testing::ScopedPortable portable_switch(portable);
     int exact_yields = 0, marked_total = 0;
     for (std::uint32_t b0 = 0; b0 < n; b0 += kBlock) {
       const std::uint32_t b1 = std::min(n, b0 + kBlock);
