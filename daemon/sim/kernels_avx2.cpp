@@ -222,7 +222,7 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
     const __m256 dx = _mm256_sub_ps(rx, x), dy = _mm256_sub_ps(ry, y), dz = _mm256_sub_ps(rz, z);
     __m256 fx, fy, fz, pe;
     anchor_forces8(anchor, dx, dy, dz, vx, vy, vz, fx, fy, fz, pe);
-    if constexpr (Yield) {  // plastic_flow's anchor test: |x − r| > limit (the same squares, the same sums)
+    if constexpr (Yield) {  // yield_block's anchor test: |x − r| > limit (the same squares, the same sums)
       const __m256 u = _mm256_sqrt_ps(
           _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
       marks[i / 8] = static_cast<std::uint8_t>(_mm256_movemask_ps(_mm256_cmp_ps(u, yl.limit8, _CMP_GT_OQ)));

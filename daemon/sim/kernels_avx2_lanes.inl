@@ -141,7 +141,7 @@ struct FromArrays {
 // step is the one pair_force() does, in the same order, without fused
 // multiply-adds: identical bits. Accumulates into f and pe, in slot order.
 // With Yield (spring model), also marks[s · kBlock/8] = the springs whose
-// length is past ±yield of their rest length: World::plastic_flow's exact test
+// length is past ±yield of their rest length: yield_block's exact test
 // (same length bits, same thresholds), from the length the force needs anyway.
 template <ForceModel M, bool Yield = false, class Fetch>
 __attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
