@@ -82,7 +82,7 @@ std::vector<haptics::ToolStick> tool_sticks(const input::DeviceBinding& b, std::
 }
 
 
-class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::Control {
+class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHandler, public server::DaemonControl {
  public:
   Daemon(RunOptions opts, kj::AsyncIoContext& io) : opts_(std::move(opts)), cfg_(opts_.config), io_(io) {}
   ~Daemon() noexcept override { stop_threads(); }
@@ -446,7 +446,7 @@ class Daemon final : public input::DeviceListener, public kj::TaskSet::ErrorHand
     if (server_) server_->set_tool_devices(device_table_.slot_of_tools(tools_));
   }
 
-  // --- server::Control (io thread) -------------------------------------------
+  // --- server::DaemonControl (io thread) -------------------------------------------
   server::DaemonStatus status() override {
     server::DaemonStatus d;
     d.stats = loop::snapshot(loop_stats(), rate_);

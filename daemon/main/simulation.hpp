@@ -14,7 +14,7 @@
 #include "haptics/feedback_board.hpp"
 #include "main/pipeline.hpp"
 #include "scene/scene.hpp"
-#include "server/control.hpp"
+#include "server/daemon_control.hpp"
 #include "server/published_state.hpp"
 #include "sim/world.hpp"
 

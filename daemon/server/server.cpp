@@ -227,7 +227,7 @@ void Server::Errors::taskFailed(kj::Exception&& e) {
   KJ_LOG(ERROR, "sculptd server task failed", e);
 }
 
-Server::Server(kj::AsyncIoContext& io, Control& control, ServerOptions options)
+Server::Server(kj::AsyncIoContext& io, DaemonControl& control, ServerOptions options)
     : io_(io), control_(control), options_(std::move(options)), tasks_(kj::heap<kj::TaskSet>(errors_)) {
   tasks_->add(pump_loop());
 }
