@@ -19,14 +19,13 @@ constexpr std::size_t kReplayRingCapacity = 16384;
 }  // namespace
 
 SimulationSettings simulation_settings(const DaemonConfig& config) {
-  SimulationSettings b;
-  b.rate_hz = config.rate_hz;
-  b.tool_margin = config.tool_margin;
-  b.size_step = config.size_step;
-  b.min_scale = config.min_scale;
-  b.max_scale = config.max_scale;
-  b.ring_capacity = config.input.kind == InputSpec::Kind::replay ? kReplayRingCapacity : kRingCapacity;
-  return b;
+  const bool replay = config.input.kind == InputSpec::Kind::replay;
+  return SimulationSettings{.rate_hz = config.rate_hz,
+                            .tool_margin = config.tool_margin,
+                            .size_step = config.size_step,
+                            .min_scale = config.min_scale,
+                            .max_scale = config.max_scale,
+                            .ring_capacity = replay ? kReplayRingCapacity : kRingCapacity};
 }
 
 Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board) {
