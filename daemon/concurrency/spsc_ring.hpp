@@ -25,7 +25,7 @@ class SpscRing {
  public:
   explicit SpscRing(std::size_t capacity)
       : mask_(std::bit_ceil(capacity < 2 ? std::size_t{2} : capacity) - 1),
-        slots_(std::make_unique<T[]>(mask_ + 1)) {}
+        cells_(std::make_unique<T[]>(mask_ + 1)) {}
 
   SpscRing(const SpscRing&) = delete;
   SpscRing& operator=(const SpscRing&) = delete;
@@ -39,7 +39,7 @@ class SpscRing {
       tail_cache_ = tail_.load(std::memory_order_acquire);
       if (head - tail_cache_ > mask_) return false;
     }
-    slots_[head & mask_] = value;
+    cells_[head & mask_] = value;
     head_.store(head + 1, std::memory_order_release);
     return true;
   }
@@ -61,7 +61,7 @@ class SpscRing {
       head_cache_ = head_.load(std::memory_order_acquire);
       if (tail == head_cache_) return nullptr;
     }
-    return &slots_[tail & mask_];
+    return &cells_[tail & mask_];
   }
   void pop() { tail_.store(tail_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
 
@@ -72,7 +72,7 @@ class SpscRing {
 
  private:
   const std::size_t mask_;
-  std::unique_ptr<T[]> slots_;
+  std::unique_ptr<T[]> cells_;
   alignas(kCacheLine) std::atomic<std::size_t> head_{0};  // written by the producer
   std::size_t tail_cache_ = 0;                            // producer's view of tail_
   alignas(kCacheLine) std::atomic<std::size_t> tail_{0};  // written by the consumer

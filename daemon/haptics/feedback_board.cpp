@@ -2,12 +2,12 @@
 
 namespace sculpt::haptics {
 
-FeedbackBoard::FeedbackBoard(int tool_slots)
-    : slots_(tool_slots < 0 ? 0 : tool_slots), slot_(std::make_unique<Slot[]>(static_cast<std::size_t>(slots_))) {}
+FeedbackBoard::FeedbackBoard(int tools)
+    : tools_(tools < 0 ? 0 : tools), cells_(std::make_unique<Cell[]>(static_cast<std::size_t>(tools_))) {}
 
 void FeedbackBoard::publish(int tool, const sim::ToolFeedback& feedback) {
-  if (tool < 0 || tool >= slots_) return;
-  Slot& s = slot_[static_cast<std::size_t>(tool)];
+  if (tool < 0 || tool >= tools_) return;
+  Cell& s = cells_[static_cast<std::size_t>(tool)];
   ToolForce& w = s.writer_copy;
   w.force = feedback.force;
   w.contacts = feedback.contacts;
@@ -20,8 +20,8 @@ void FeedbackBoard::publish(int tool, const sim::ToolFeedback& feedback) {
 }
 
 void FeedbackBoard::clear(int tool) {
-  if (tool < 0 || tool >= slots_) return;
-  Slot& s = slot_[static_cast<std::size_t>(tool)];
+  if (tool < 0 || tool >= tools_) return;
+  Cell& s = cells_[static_cast<std::size_t>(tool)];
   s.writer_copy.force = {};
   s.writer_copy.contacts = 0;
   ++s.writer_copy.ticks;
@@ -29,8 +29,8 @@ void FeedbackBoard::clear(int tool) {
 }
 
 ToolForce FeedbackBoard::read(int tool) const {
-  if (tool < 0 || tool >= slots_) return {};
-  return slot_[static_cast<std::size_t>(tool)].value.load();
+  if (tool < 0 || tool >= tools_) return {};
+  return cells_[static_cast<std::size_t>(tool)].value.load();
 }
 
 }  // namespace sculpt::haptics

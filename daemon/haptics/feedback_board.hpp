@@ -1,7 +1,7 @@
-// The sim thread → haptics thread handoff: per tool slot the latest contact
+// The sim thread → haptics thread handoff: per tool the latest contact
 // force, written every tick without waiting, read by the paced haptics thread.
 //
-//   FeedbackBoard board(tool_slots);                 // setup (allocates)
+//   FeedbackBoard board(tools);                      // setup (allocates)
 //   board.publish(t, world.feedback()[t]);           // sim thread, every tick: no allocation, no locks
 //   ToolForce f = board.read(t);                     // haptics thread, whenever it likes
 //
@@ -28,11 +28,11 @@ struct ToolForce {
 
 class FeedbackBoard {
  public:
-  explicit FeedbackBoard(int tool_slots);
+  explicit FeedbackBoard(int tools);
   FeedbackBoard(const FeedbackBoard&) = delete;
   FeedbackBoard& operator=(const FeedbackBoard&) = delete;
 
-  int tool_slots() const { return slots_; }
+  int tools() const { return tools_; }
 
   // Sim thread (single writer). Out-of-range tools are ignored. Allocation-free.
   void publish(int tool, const sim::ToolFeedback& feedback);
@@ -43,12 +43,12 @@ class FeedbackBoard {
   ToolForce read(int tool) const;
 
  private:
-  struct Slot {
+  struct Cell {
     concurrency::Seqlock<ToolForce> value;
     ToolForce writer_copy;  // the sim thread's own copy: counters continue from it
   };
-  int slots_;
-  std::unique_ptr<Slot[]> slot_;
+  int tools_;
+  std::unique_ptr<Cell[]> cells_;
 };
 
 }  // namespace sculpt::haptics

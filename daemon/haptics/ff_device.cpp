@@ -8,11 +8,11 @@ namespace sculpt::haptics {
 FfDevice::FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options, FfCounters* counters)
     : port_(std::move(port)), options_(options), counters_(counters) {
   caps_ = port_->caps();
-  const bool has_slots = caps_.effects_max > 0;
-  const bool constant_ok = options_.constant && has_slots && caps_.has(FF_CONSTANT);
-  rumble_has_ = options_.rumble && has_slots && caps_.has(FF_RUMBLE);
+  const bool has_room = caps_.effects_max > 0;
+  const bool constant_ok = options_.constant && has_room && caps_.has(FF_CONSTANT);
+  rumble_has_ = options_.rumble && has_room && caps_.has(FF_RUMBLE);
   mode_ = constant_ok ? FfMode::constant : rumble_has_ ? FfMode::rumble_only : FfMode::none;
-  // One slot only: it belongs to the constant force; kicks need a second one.
+  // Room for one effect only: the constant force takes it; kicks need a second id.
   rumble_ok_ = rumble_has_ && (mode_ == FfMode::rumble_only || caps_.effects_max >= 2);
   if (mode_ != FfMode::none) set_gain(options_.gain);
 }
@@ -109,7 +109,7 @@ bool FfDevice::set_constant(const ConstantCommand& c) {
       return false;
     }
     if (err == ENOSPC && fresh && rumble_id_ >= 0) {
-      // No free slot: the constant force matters more than the kick.
+      // No free id: the constant force matters more than the kick.
       erase(rumble_id_);
       rumble_ok_ = false;
       if (gone_) return false;
@@ -145,7 +145,7 @@ bool FfDevice::kick(const RumbleCommand& r) {
       add_live(-1);
       continue;
     }
-    if ((err == EINVAL || err == ENOSPC) && fresh) rumble_ok_ = false;  // refused, or no slot for it
+    if ((err == EINVAL || err == ENOSPC) && fresh) rumble_ok_ = false;  // refused, or no id free for it
     return false;
   }
   return false;

@@ -2,10 +2,10 @@
 // when it is destroyed (or shut down), never leaked.
 //
 // The upload state machine, per effect kind (constant, rumble):
-//   no id ──upload(id −1)──▶ id n ──upload(id n)──▶ id n ...   (update in place, never a new slot)
+//   no id ──upload(id −1)──▶ id n ──upload(id n)──▶ id n ...   (update in place, never a new id)
 //   EINVAL on an update (the id vanished)  → forget it, next time upload with −1 again
 //   EINVAL on a new constant               → the device refuses constant force: rumble-only from now on
-//   ENOSPC on a new effect                 → no free slot: a rumble gives its slot to the constant
+//   ENOSPC on a new effect                 → no free id: a rumble gives its id up to the constant
 //                                             (ff_effects_max = 1: the constant wins, or the rumble on
 //                                             rumble-only pads); a constant that still cannot get one
 //                                             fails (counted) and the caller retries it later
@@ -33,7 +33,7 @@ struct FfCounters {
 
 enum class FfMode {
   none,          // no usable FF: input only
-  constant,      // FF_CONSTANT (+ FF_RUMBLE kicks when there is a slot for them)
+  constant,      // FF_CONSTANT (+ FF_RUMBLE kicks when there is an id for them)
   rumble_only,   // FF_RUMBLE kicks only
 };
 
@@ -56,7 +56,7 @@ class FfDevice {
 
   FfMode mode() const { return mode_; }
   const FfCaps& caps() const { return caps_; }
-  bool rumble_allowed() const;  // kicks possible in this mode (a slot, a bit, the option)
+  bool rumble_allowed() const;  // kicks possible in this mode (an id, a bit, the option)
   const std::string& node() const;
 
   // Uploads the constant force (first time with id −1 and starts it playing
@@ -98,7 +98,7 @@ class FfDevice {
   bool rumble_ok_ = false;
   bool gone_ = false;
   bool shut_ = false;       // shut down: nothing more is sent
-  bool rumble_has_ = false; // FF_RUMBLE usable at all (bit, option, a slot)
+  bool rumble_has_ = false; // FF_RUMBLE usable at all (bit, option, an id)
   std::uint64_t uploads_ = 0;
   std::int16_t constant_id_ = -1;
   std::int16_t rumble_id_ = -1;

@@ -13,7 +13,7 @@ namespace sculpt::haptics {
 
 struct FfCaps {
   std::bitset<FF_CNT> bits;  // EVIOCGBIT(EV_FF): FF_CONSTANT, FF_RUMBLE, FF_GAIN, ...
-  int effects_max = 0;       // EVIOCGEFFECTS: slots the device can hold at once
+  int effects_max = 0;       // EVIOCGEFFECTS: effects (ids) the device can hold at once
   bool has(std::uint16_t code) const { return code < FF_CNT && bits.test(code); }
   bool any_effect() const { return has(FF_CONSTANT) || has(FF_RUMBLE); }
 };
@@ -22,7 +22,7 @@ class FfPort {
  public:
   virtual ~FfPort() = default;
   virtual FfCaps caps() = 0;
-  // EVIOCSFF: 0 or the errno. id -1 asks for a new slot; the assigned id is
+  // EVIOCSFF: 0 or the errno. id -1 asks for a new id; the assigned id is
   // written back into effect.id.
   virtual int upload(ff_effect& effect) = 0;
   // EVIOCRMFF: 0 or the errno.

@@ -47,10 +47,10 @@ void HapticsEngine::open_ff(Attached& d) {
       say(kInfo, d.node + ": no usable force feedback, input only");
       return;  // no fd kept open for nothing
     }
-    const int slots = ff->caps().effects_max;
+    const int effects = ff->caps().effects_max;
     say(kInfo, d.node + ": " + (ff->mode() == FfMode::constant ? "constant force" : "rumble only") +
                    (ff->mode() == FfMode::constant && ff->rumble_allowed() ? " + rumble kicks" : "") + ", " +
-                   std::to_string(slots) + (slots == 1 ? " effect slot" : " effect slots"));
+                   std::to_string(effects) + (effects == 1 ? " effect slot" : " effect slots"));
     d.ff = std::move(ff);
     stats_.ff_devices.fetch_add(1, std::memory_order_relaxed);
   } catch (const std::exception& e) {

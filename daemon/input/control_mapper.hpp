@@ -1,5 +1,5 @@
 // The simulation thread's view of the controls: applies attach, detach and
-// frame messages and keeps, per tool slot, the stick deflection (calibrated,
+// frame messages and keeps, per tool, the stick deflection (calibrated,
 // dead zone applied), grab and the monotonic button counters. No allocation,
 // no locks, no syscalls after construction.
 #pragma once

@@ -14,7 +14,7 @@
 namespace sculpt::input {
 
 inline constexpr std::size_t kMaxDevices = 8;       // device slots
-inline constexpr std::size_t kMaxTools = 8;         // tool slots
+inline constexpr std::size_t kMaxTools = 8;         // tools a scene may have driven
 inline constexpr std::size_t kMaxBoundAxes = 16;    // per device
 inline constexpr std::size_t kMaxBoundButtons = 24; // per device
 inline constexpr std::size_t kMaxFrameEvents = 48;  // longer reports are split into several frames

@@ -17,10 +17,10 @@ constexpr std::array<std::string_view, kRoleCount> kRoleNames{
 
 bool is_axis_role(Role r) { return r == Role::x || r == Role::y || r == Role::depth; }
 
-Control axis(std::uint16_t code, bool invert = false, bool unipolar = false) { return {code, invert, unipolar}; }
-Control key(std::uint16_t code) { return {code, false, false}; }
+ControlCode axis(std::uint16_t code, bool invert = false, bool unipolar = false) { return {code, invert, unipolar}; }
+ControlCode key(std::uint16_t code) { return {code, false, false}; }
 
-void set(StickMapping& s, Role r, Control c) { s[r] = c; }
+void set(StickMapping& s, Role r, ControlCode c) { s[r] = c; }
 
 StickMapping gamepad_stick(bool left) {
   StickMapping s;
@@ -66,14 +66,14 @@ std::string where(const std::filesystem::path& file, const toml::node& node) {
   return fmt::format("{}:{}", file.string(), node.source().begin.line);
 }
 
-std::optional<Control> parse_control(const toml::node& node, Role role, const std::string& at,
+std::optional<ControlCode> parse_control(const toml::node& node, Role role, const std::string& at,
                                      const std::string& key_name) {
   const std::uint16_t type = is_axis_role(role) ? EV_ABS : EV_KEY;
   if (auto n = node.value_exact<std::int64_t>()) {
     if (*n < 0 || *n > (type == EV_ABS ? ABS_MAX : KEY_MAX))
       throw MappingError(fmt::format("{}: {} = {}: not a valid {} code", at, key_name, *n,
                                      type == EV_ABS ? "axis" : "button"));
-    return Control{static_cast<std::uint16_t>(*n), false, false};
+    return ControlCode{static_cast<std::uint16_t>(*n), false, false};
   }
   auto s = node.value_exact<std::string>();
   if (!s)
@@ -81,7 +81,7 @@ std::optional<Control> parse_control(const toml::node& node, Role role, const st
                                    type == EV_ABS ? "ABS_X" : "BTN_SOUTH"));
   std::string_view text = *s;
   if (text == "none" || text.empty()) return std::nullopt;
-  Control c;
+  ControlCode c;
   if (type == EV_ABS && text.front() == '-') c.invert = true, text.remove_prefix(1);
   if (type == EV_ABS && !text.empty() && text.back() == '+') c.unipolar = true, text.remove_suffix(1);
   auto code = event_code(type, text);

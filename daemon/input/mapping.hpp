@@ -37,18 +37,18 @@ std::string_view to_string(Role role);
 
 // One control: an ABS_* code (roles x, y, depth) or a BTN_*/KEY_* code
 // (the others). `invert` flips an axis.
-struct Control {
+struct ControlCode {
   std::uint16_t code = 0;
   bool invert = false;
   bool unipolar = false;  // a trigger: reads 0..1
-  bool operator==(const Control&) const = default;
+  bool operator==(const ControlCode&) const = default;
 };
 
 // Per stick, per role: the control, or none.
 struct StickMapping {
-  std::array<std::optional<Control>, kRoleCount> roles{};
-  std::optional<Control>& operator[](Role r) { return roles[static_cast<std::size_t>(r)]; }
-  const std::optional<Control>& operator[](Role r) const { return roles[static_cast<std::size_t>(r)]; }
+  std::array<std::optional<ControlCode>, kRoleCount> roles{};
+  std::optional<ControlCode>& operator[](Role r) { return roles[static_cast<std::size_t>(r)]; }
+  const std::optional<ControlCode>& operator[](Role r) const { return roles[static_cast<std::size_t>(r)]; }
 };
 
 struct DeviceMapping {
@@ -69,7 +69,7 @@ struct DeviceOverride {
   struct Entry {
     Stick stick;
     Role role;
-    std::optional<Control> control;    // nullopt: unbind
+    std::optional<ControlCode> control;    // nullopt: unbind
   };
   std::vector<Entry> entries;
   unsigned line = 0;

@@ -81,7 +81,7 @@ void OverrunLog::record(OverrunRecord r) {
   auto& c = causes_[static_cast<int>(r.cause)];
   c.store(c.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
   if (r.off_cpu) off_cpu_.store(off_cpu_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-  slots_[n % kKeep].store(r);
+  cells_[n % kKeep].store(r);
   written_.store(n + 1, std::memory_order_release);
 }
 
@@ -89,8 +89,8 @@ std::vector<OverrunRecord> OverrunLog::recent() const {
   const std::uint64_t n = total();
   std::vector<OverrunRecord> out;
   for (std::uint64_t i = n > kKeep ? n - kKeep : 0; i < n; ++i) {
-    const OverrunRecord r = slots_[i % kKeep].load();
-    // A slot the writer has reused since holds a newer record: skip it
+    const OverrunRecord r = cells_[i % kKeep].load();
+    // A cell the writer has reused since holds a newer record: skip it
     // (the next call reads it in its place).
     if (r.index == i) out.push_back(r);
   }

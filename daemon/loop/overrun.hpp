@@ -9,7 +9,7 @@
 // one here (docs/daemon.md, "Why ticks overrun").
 // The sim thread keeps the last few overruns with their tick, lateness, stage
 // times and counters, writing without allocating or locking (a seqlock per
-// slot); readers copy them from any thread.
+// cell); readers copy them from any thread.
 #pragma once
 
 #include <array>
@@ -114,7 +114,7 @@ class OverrunLog {
  private:
   std::array<std::atomic<std::uint64_t>, static_cast<int>(OverrunCause::count)> causes_{};
   std::atomic<std::uint64_t> off_cpu_{0};
-  std::array<concurrency::Seqlock<OverrunRecord>, kKeep> slots_{};
+  std::array<concurrency::Seqlock<OverrunRecord>, kKeep> cells_{};
   std::atomic<std::uint64_t> written_{0};
 };
 

@@ -1,6 +1,6 @@
 // The fixed-rate simulation thread. Every period, at an absolute deadline on
 // CLOCK_MONOTONIC: input stage (inputs due → tool poses), World::step, publish
-// stage (feedback, change log), then the stats. Nothing in the loop allocates,
+// stage (feedback, change log), then the stats (loop/sim_probe.hpp). Nothing in the loop allocates,
 // locks or makes a blocking call other than clock_nanosleep: the stages are
 // the caller's, and must keep to the same rule.
 #pragma once
@@ -13,8 +13,7 @@
 #include <vector>
 
 #include "concurrency/spsc_ring.hpp"
-#include "loop/histogram.hpp"
-#include "loop/overrun.hpp"
+#include "loop/sim_probe.hpp"
 #include "sim/tool.hpp"
 #include "sim/world.hpp"
 
@@ -28,36 +27,6 @@ class TickStages {
   virtual void input(std::uint64_t tick, std::span<sim::Tool> tools) = 0;
   // Hand the tick's results on (feedback to the haptics, changes to viewers).
   virtual void publish(std::uint64_t tick, const sim::World<float>& world) = 0;
-};
-
-enum class Stage : int { input = 0, collision, integration, publish, count };
-const char* stage_name(Stage s);
-
-// Written by the sim thread only; read from anywhere.
-struct LoopStats {
-  std::atomic<std::uint64_t> ticks{0};             // simulated ticks (a paused loop adds none)
-  std::atomic<std::uint64_t> heartbeats{0};        // loop periods run, paused or not (the watchdog's)
-  std::atomic<bool> paused{false};
-  std::atomic<std::uint64_t> skipped_periods{0};  // whole periods dropped to get back on schedule
-  std::atomic<std::uint64_t> vertices_total{0};
-  std::atomic<std::uint64_t> vertices_awake{0};
-  std::atomic<std::uint64_t> blowups{0};
-  std::atomic<std::uint32_t> last_blowup_body{0};  // with the cause, of the latest blow-up
-  std::atomic<std::uint8_t> last_blowup_cause{0};  // sim::BlowupCause
-  std::atomic<std::uint64_t> contacts{0};         // this tick, all tools
-  std::atomic<std::int64_t> last_tick_ns{0};      // CLOCK_MONOTONIC of the last completed tick
-  LatencyHistogram jitter;                        // wake-up lateness against the deadline, ns
-  LatencyHistogram stage[static_cast<int>(Stage::count)];  // per-stage duration, ns
-  OverrunLog overrun_log;                         // why each overrun happened (loop/overrun.hpp)
-  // The sim thread's own kernel counters since its loop began: page faults,
-  // preemptions, and waits in the middle of a tick's work: all of them, and
-  // those in ticks without a page fault (0 unless something it calls blocks:
-  // a stalled viewer or device must never make one).
-  std::atomic<std::uint64_t> thread_minflt{0};
-  std::atomic<std::uint64_t> thread_majflt{0};
-  std::atomic<std::uint64_t> thread_nivcsw{0};
-  std::atomic<std::uint64_t> thread_work_nvcsw{0};
-  std::atomic<std::uint64_t> thread_work_nvcsw_no_fault{0};
 };
 
 struct SimThreadOptions {
@@ -120,6 +89,12 @@ class SimThread {
 
  private:
   void run();
+  // Sleeps (and spins, when asked) until `deadline`; the time it woke.
+  std::int64_t wait_for(std::int64_t deadline);
+  // Pause and resume requests, applied at the tick boundary.
+  void take_commands();
+  // One tick's work: inputs due → tool poses, World::step, publish.
+  TickTiming run_tick(std::uint64_t tick, std::int64_t deadline, std::int64_t woke);
 
   sim::World<float>& world_;
   TickStages& stages_;

@@ -9,7 +9,7 @@
 
 #include "input/device_info.hpp"
 #include "input/input_message.hpp"
-#include "server/control.hpp"
+#include "server/daemon_control.hpp"
 
 namespace sculpt::daemon {
 

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cinttypes>
@@ -87,6 +88,10 @@ void write(Level lvl, std::string_view message) {
   for (char c : message) line += c == '\n' ? ' ' : c;
   line += '\n';
   cli::write_stderr(line);
+}
+
+void write_priority(int priority, std::string_view message) {
+  write(static_cast<Level>(std::clamp(priority, 3, 7)), message);
 }
 
 }  // namespace sculpt::log

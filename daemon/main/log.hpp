@@ -27,6 +27,9 @@ std::string_view level_name(Level level);
 void set_journal_prefix(bool on);
 
 void write(Level level, std::string_view message);
+// A syslog priority from another module's log sink (input, server),
+// clamped to the levels above.
+void write_priority(int priority, std::string_view message);
 
 template <class... Args>
 void err(fmt::format_string<Args...> f, Args&&... args) { write(Level::err, fmt::format(f, std::forward<Args>(args)...)); }

@@ -7,6 +7,27 @@ namespace sculpt::daemon {
 
 static_assert(scene::kMaxTools == input::kMaxTools, "the scene's tool limit is the input's");
 
+namespace {
+
+constexpr std::size_t kRingCapacity = 4096;  // io → sim messages in flight
+// A replay is queued as far ahead as this ring holds (~1 KiB a message; a
+// minute and more of a typical session), so an io thread starved for
+// seconds on a loaded machine still delivers every frame before its tick:
+// a late one would make the run differ from the recording.
+constexpr std::size_t kReplayRingCapacity = 16384;
+
+}  // namespace
+
+SimulationSettings simulation_settings(const DaemonConfig& config) {
+  const bool replay = config.input.kind == InputSpec::Kind::replay;
+  return SimulationSettings{.rate_hz = config.rate_hz,
+                            .tool_margin = config.tool_margin,
+                            .size_step = config.size_step,
+                            .min_scale = config.min_scale,
+                            .max_scale = config.max_scale,
+                            .ring_capacity = replay ? kReplayRingCapacity : kRingCapacity};
+}
+
 Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board) {
   Simulation s;
   s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);

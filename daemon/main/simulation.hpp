@@ -12,9 +12,10 @@
 #include <optional>
 
 #include "haptics/feedback_board.hpp"
+#include "main/config.hpp"
 #include "main/pipeline.hpp"
 #include "scene/scene.hpp"
-#include "server/control.hpp"
+#include "server/daemon_control.hpp"
 #include "server/published_state.hpp"
 #include "sim/world.hpp"
 
@@ -40,6 +41,9 @@ struct Simulation {
   std::unique_ptr<server::PublishedReader> reader;    // the server's view of it, filled
   server::SceneInfo info;          // what viewers get told about the scene
 };
+
+// What a build reads of `config`, copied for the worker thread.
+SimulationSettings simulation_settings(const DaemonConfig& config);
 
 // Throws (scene::SceneError, std::invalid_argument) naming what is wrong;
 // scene::build_world makes the checks every reader of a scene shares.

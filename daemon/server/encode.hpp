@@ -6,7 +6,7 @@
 #include <span>
 
 #include "sculpt.capnp.h"
-#include "server/control.hpp"
+#include "server/daemon_control.hpp"
 #include "server/published_state.hpp"
 
 namespace sculpt::server {

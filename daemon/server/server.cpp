@@ -16,6 +16,7 @@
 #include "loop/sim_thread.hpp"
 #include "server/checked_stream.hpp"
 #include "server/encode.hpp"
+#include "server/interfaces.hpp"
 
 namespace sculpt::server {
 namespace {
@@ -59,148 +60,6 @@ struct Server::Stream {
   explicit Stream(proto::Viewer::Client v) : viewer(kj::mv(v)) {}
 };
 
-class SubscriptionImpl final : public proto::Subscription::Server {
- public:
-  SubscriptionImpl(server::Server& server, std::uint64_t id) : server_(server), id_(id) {}
-  ~SubscriptionImpl() noexcept(false) { server_.remove_stream(id_); }
-
-  kj::Promise<void> setRate(SetRateContext context) override {
-    server_.set_rate(id_, context.getParams().getMaxFps());
-    return kj::READY_NOW;
-  }
-  kj::Promise<void> setTolerance(SetToleranceContext context) override {
-    server_.set_tolerance(id_, context.getParams().getToleranceM());
-    return kj::READY_NOW;
-  }
-
- private:
-  server::Server& server_;
-  std::uint64_t id_;
-};
-
-class SessionImpl final : public proto::Session::Server {
- public:
-  SessionImpl(server::Server& server, std::uint64_t client) : server_(server), client_(client) {}
-
-  kj::Promise<void> status(StatusContext context) override {
-    if (!server_.admit(client_)) return closing();
-    server_.fill_status(context.getResults().initStats());
-    return kj::READY_NOW;
-  }
-  kj::Promise<void> devices(DevicesContext context) override {
-    if (!server_.admit(client_)) return closing();
-    const auto list = server_.control().devices();
-    fill_devices(context.getResults().initDevices(static_cast<unsigned>(list.size())), list);
-    return kj::READY_NOW;
-  }
-  kj::Promise<void> snapshot(SnapshotContext context) override {
-    if (!server_.admit(client_)) return closing();
-    server_.fill_snapshot_now(context.getResults().initSnapshot());
-    return kj::READY_NOW;
-  }
-  kj::Promise<void> subscribe(SubscribeContext context) override {
-    if (!server_.admit(client_)) return closing();
-    auto p = context.getParams();
-    const std::uint64_t id = server_.add_stream(p.getViewer(), p.getToleranceM(), p.getMaxFps(), client_);
-    context.getResults().setSubscription(kj::heap<SubscriptionImpl>(server_, id));
-    return kj::READY_NOW;
-  }
-  kj::Promise<void> loadScene(LoadSceneContext context) override {
-    if (!server_.admit(client_)) return closing();
-    const std::string path = context.getParams().getPath();
-    return server_.control().load_scene(path).then([context](std::string error) mutable {
-      fill(context.getResults().initResult(), error);
-    });
-  }
-  kj::Promise<void> reset(ResetContext context) override {
-    if (!server_.admit(client_)) return closing();
-    return server_.control().reset().then([context](std::string error) mutable {
-      fill(context.getResults().initResult(), error);
-    });
-  }
-  kj::Promise<void> pause(PauseContext context) override {
-    if (!server_.admit(client_)) return closing();
-    const std::string error = server_.control().set_paused(true);
-    if (!error.empty()) return result(context.getResults().initResult(), error);
-    return answer_when_paused(context.getResults().initResult(), true);
-  }
-  kj::Promise<void> resume(ResumeContext context) override {
-    if (!server_.admit(client_)) return closing();
-    const std::string error = server_.control().set_paused(false);
-    if (!error.empty()) return result(context.getResults().initResult(), error);
-    return answer_when_paused(context.getResults().initResult(), false);
-  }
-
- private:
-  // ok only once the sim thread has obeyed: a stalled or finished one never does,
-  // and a snapshot taken after pause() answers ok must be the final state.
-  kj::Promise<void> answer_when_paused(proto::Result::Builder r, bool paused) {
-    return server_.until_paused(paused).then([r, paused](bool obeyed) mutable {
-      r.setOk(obeyed);
-      if (!obeyed)
-        r.setError(paused ? "the simulation thread did not pause within 2 s (stalled or finished)"
-                          : "the simulation thread did not resume within 2 s (stalled or finished)");
-    });
-  }
-  // A client over a limit gets no more answers: it is being disconnected.
-  static kj::Promise<void> closing() {
-    return kj::Promise<void>(KJ_EXCEPTION(DISCONNECTED, "over a limit (see the daemon's log): the connection is closing"));
-  }
-  static void fill(proto::Result::Builder r, const std::string& error) {
-    r.setOk(error.empty());
-    r.setError(error);
-  }
-  static kj::Promise<void> result(proto::Result::Builder r, const std::string& error) {
-    fill(r, error);
-    return kj::READY_NOW;
-  }
-  server::Server& server_;
-  std::uint64_t client_;
-};
-
-class SculptdImpl final : public proto::Sculptd::Server {
- public:
-  SculptdImpl(server::Server& server, std::uint64_t client, std::string peer)
-      : server_(server), client_(client), peer_(std::move(peer)) {}
-
-  kj::Promise<void> hello(HelloContext context) override {
-    auto p = context.getParams();
-    auto r = context.getResults();
-    r.setMajor(proto::PROTOCOL_MAJOR);
-    r.setMinor(proto::PROTOCOL_MINOR);
-    r.setServer(server_.options().name);
-    const std::string who = p.getClient();
-    server_.said_hello(client_, who);
-    if (const std::string refusal = server_.refusal(client_); !refusal.empty()) {
-      r.setAccepted(false);
-      r.setReason(refusal);
-      return kj::READY_NOW;
-    }
-    if (p.getMajor() != proto::PROTOCOL_MAJOR) {
-      const std::string reason = fmt::format("this daemon speaks protocol {}.{}, the client {}.{}; no major but {} "
-                                             "is understood",
-                                             proto::PROTOCOL_MAJOR, proto::PROTOCOL_MINOR, p.getMajor(),
-                                             p.getMinor(), proto::PROTOCOL_MAJOR);
-      r.setAccepted(false);
-      r.setReason(reason);
-      if (server_.options().log)
-        server_.options().log(5, fmt::format("client {} ({}, \"{}\") refused: {}", client_, peer_, who, reason));
-      return kj::READY_NOW;
-    }
-    r.setAccepted(true);
-    r.setSession(kj::heap<SessionImpl>(server_, client_));
-    if (server_.options().log)
-      server_.options().log(7, fmt::format("client {} ({}) is \"{}\", protocol {}.{}", client_, peer_, who,
-                                           p.getMajor(), p.getMinor()));
-    return kj::READY_NOW;
-  }
-
- private:
-  server::Server& server_;
-  std::uint64_t client_;
-  std::string peer_;
-};
-
 struct Server::Client {
   std::uint64_t id = 0;
   std::string peer;
@@ -227,7 +86,7 @@ void Server::Errors::taskFailed(kj::Exception&& e) {
   KJ_LOG(ERROR, "sculptd server task failed", e);
 }
 
-Server::Server(kj::AsyncIoContext& io, Control& control, ServerOptions options)
+Server::Server(kj::AsyncIoContext& io, DaemonControl& control, ServerOptions options)
     : io_(io), control_(control), options_(std::move(options)), tasks_(kj::heap<kj::TaskSet>(errors_)) {
   tasks_->add(pump_loop());
 }
@@ -366,7 +225,7 @@ void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, s
   limits.nestingLimit = options_.nesting_limit;
   c->network = kj::heap<capnp::TwoPartyVatNetwork>(*c->messages, capnp::rpc::twoparty::Side::SERVER, limits);
   c->rpc = kj::heap<capnp::RpcSystem<capnp::rpc::twoparty::VatId>>(
-      capnp::makeRpcServer(*c->network, kj::heap<SculptdImpl>(*this, c->id, c->peer)));
+      capnp::makeRpcServer(*c->network, make_sculptd(*this, c->id, c->peer)));
   c->rpc->setFlowLimit(options_.flow_limit_words);
   ++counters_.connections;
   if (options_.log) options_.log(6, fmt::format("client {} connected ({})", c->id, c->peer));

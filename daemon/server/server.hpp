@@ -24,7 +24,7 @@
 #include <kj/async-unix.h>
 
 #include "sculpt.capnp.h"
-#include "server/control.hpp"
+#include "server/daemon_control.hpp"
 #include "server/published_state.hpp"
 
 namespace sculpt::server {
@@ -82,7 +82,7 @@ struct ServerCounters {
 
 class Server {
  public:
-  Server(kj::AsyncIoContext& io, Control& control, ServerOptions options = {});
+  Server(kj::AsyncIoContext& io, DaemonControl& control, ServerOptions options = {});
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
@@ -117,7 +117,7 @@ class Server {
   // For the Session implementation (server.cpp).
   struct Stream;
   struct Client;
-  Control& control() { return control_; }
+  DaemonControl& control() { return control_; }
   void fill_status(proto::Stats::Builder out);
   void fill_snapshot_now(proto::Snapshot::Builder out);
   std::uint64_t add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client);
@@ -159,7 +159,7 @@ class Server {
   bool send_frame(Stream& s, std::int64_t now);
 
   kj::AsyncIoContext& io_;
-  Control& control_;
+  DaemonControl& control_;
   ServerOptions options_;
   SceneInfo scene_;
   std::unique_ptr<PublishedReader> reader_;

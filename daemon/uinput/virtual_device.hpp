@@ -70,7 +70,7 @@ struct DeviceSpec {
   DeviceSpec& effects_max(std::uint32_t n) { ff_effects_max = n; return *this; }
 
   // A two-stick gamepad with a full set of FF capabilities (constant, rumble,
-  // periodic sine/square, gain, autocenter) and 16 effect slots.
+  // periodic sine/square, gain, autocenter) and room for 16 effects.
   static DeviceSpec gamepad();
   // A pad that can only rumble (like most game controllers).
   static DeviceSpec rumble_pad();

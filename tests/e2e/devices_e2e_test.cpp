@@ -21,8 +21,8 @@ TEST(Devices, RumbleOnlyPadGetsRumbleAndNoConstantForce) {
   EXPECT_TRUE(ids_left(log).empty());
 }
 
-TEST(Devices, OneSlotPadNeverHoldsTwoEffects) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("one slot pad").effects_max(1));
+TEST(Devices, OneEffectPadNeverHoldsTwoEffects) {
+  support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("one effect pad").effects_max(1));
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();

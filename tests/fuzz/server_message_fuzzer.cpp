@@ -17,7 +17,7 @@ namespace {
 
 using namespace sculpt;
 
-class FakeControl final : public server::Control {
+class FakeControl final : public server::DaemonControl {
  public:
   server::DaemonStatus status() override {
     server::DaemonStatus d;

@@ -16,7 +16,7 @@ struct libevdev;
 
 namespace sculpt::support {
 
-// Effects as a client would build them; id -1 asks the kernel for a new slot.
+// Effects as a client would build them; id -1 asks the kernel for a new id.
 ff_effect constant_effect(std::int16_t level, std::uint16_t direction, std::uint16_t length_ms,
                           std::int16_t id = -1);
 ff_effect rumble_effect(std::uint16_t strong, std::uint16_t weak, std::uint16_t length_ms,

@@ -131,7 +131,7 @@ TEST(DeviceHotplug, PlugBringsTheSameDeviceBack) {
   EXPECT_EQ(libevdev_get_id_product(client.dev()), 0x0042);
   EXPECT_TRUE(client.has_ff(FF_CONSTANT));
 
-  // A fresh device: all slots free again, FF answered by the new incarnation.
+  // A fresh device: all effect ids free again, FF answered by the new incarnation.
   joy.clear_log();
   ff_effect e = constant_effect(-300, 0x8000, 20);
   ASSERT_EQ(client.upload(e), 0);

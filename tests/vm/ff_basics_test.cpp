@@ -134,7 +134,7 @@ TEST_F(FfBasics, EraseStopsThenErasesAndFreesTheId) {
   // The id is gone: updating it now is refused by the kernel.
   EXPECT_EQ(client.upload(e), EINVAL);
   EXPECT_EQ(client.erase(e.id), EINVAL);
-  // And the slot is free again for a new effect.
+  // And the id is free again for a new effect.
   ff_effect again = rumble_effect(1, 1, 10);
   ASSERT_EQ(client.upload(again), 0);
   EXPECT_EQ(again.id, e.id);
@@ -202,8 +202,8 @@ TEST(FfDevices, RumbleOnlyDeviceRejectsConstant) {
   EXPECT_EQ(joy.uploads()[0].effect.type, FF_RUMBLE);
 }
 
-TEST(FfDevices, SingleSlotDeviceRunsOutOfIdsButUpdatesInPlace) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad().named("one slot pad").effects_max(1));
+TEST(FfDevices, SingleEffectDeviceRunsOutOfIdsButUpdatesInPlace) {
+  VirtualJoystick joy(JoystickSpec::rumble_pad().named("one effect pad").effects_max(1));
   EvdevClient client(joy.event_node());
   EXPECT_EQ(client.ff_effects_max(), 1);
 

@@ -1,4 +1,4 @@
-// A fake FF device for unit tests: slots like the kernel's (id −1 takes the
+// A fake FF device for unit tests: effect ids like the kernel's (id −1 takes the
 // lowest free one, ENOSPC when full, EINVAL for an id not in use or an
 // unsupported type), scripted errors, and a log of every call.
 #pragma once
@@ -17,7 +17,7 @@ namespace sculpt::haptics::testing {
 
 struct FakeDeviceState {
   FfCaps caps;
-  std::vector<bool> used;                // slot → in use
+  std::vector<bool> used;                // effect id → in use
   std::deque<int> upload_errors;         // next uploads answer these (0 = normal)
   bool unplugged = false;                // every call answers ENODEV
   bool closed = false;                   // the port was destroyed (fd closed)

@@ -48,7 +48,7 @@ sim::ToolFeedback feedback(double fx, double fy, double fz, std::uint32_t contac
 
 TEST(FeedbackBoard, LatestForcePerTool) {
   FeedbackBoard board(2);
-  EXPECT_EQ(board.tool_slots(), 2);
+  EXPECT_EQ(board.tools(), 2);
   board.publish(0, feedback(1, 2, 3, 4));
   board.publish(1, feedback(-1, 0, 0, 1));
   board.publish(0, feedback(5, 6, 7, 8));

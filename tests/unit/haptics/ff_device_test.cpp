@@ -36,13 +36,13 @@ TEST(FfDevice, UploadsWithMinusOneOnceThenUpdatesInPlace) {
   for (int i = 1; i <= 100; ++i) ASSERT_TRUE(dev->set_constant({static_cast<std::int16_t>(1000 + i * 10), 0x8000}));
   const auto ups = s->of(Call::upload);
   ASSERT_EQ(ups.size(), 101u);
-  EXPECT_EQ(ups[0].effect.id, -1);            // asked for a new slot once
+  EXPECT_EQ(ups[0].effect.id, -1);            // asked for a new id once
   for (std::size_t i = 1; i < ups.size(); ++i) EXPECT_EQ(ups[i].effect.id, id);  // then in place
   EXPECT_EQ(ups.back().effect.type, FF_CONSTANT);
   EXPECT_EQ(ups.back().effect.u.constant.level, 2000);
   EXPECT_EQ(ups.back().effect.direction, 0x8000);
   EXPECT_EQ(ups.back().effect.replay.length, 0);  // plays until stopped
-  EXPECT_EQ(s->live(), 1);                    // one slot, however many updates
+  EXPECT_EQ(s->live(), 1);                    // one id, however many updates
   EXPECT_EQ(counters.uploads.load(), 101u);
   EXPECT_EQ(counters.live_effects.load(), 1);
   EXPECT_EQ(counters.errors.load(), 0u);
@@ -66,7 +66,7 @@ TEST(FfDevice, SetsGainWhenSupported) {
   EXPECT_TRUE(no_gain->of(Call::write).empty());
 }
 
-TEST(FfDevice, RumbleKickUsesItsOwnSlotInPlace) {
+TEST(FfDevice, RumbleKickUsesItsOwnIdInPlace) {
   auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   FfCounters counters;
   auto dev = make(s, &counters);
@@ -119,11 +119,11 @@ TEST(FfDevice, EinvalOnANewConstantFallsBackToRumble) {
   EXPECT_TRUE(dev->kick({0x8000, 0x8000, 60}));
 }
 
-TEST(FfDevice, EnospcForTheConstantTakesTheRumbleSlot) {
+TEST(FfDevice, EnospcForTheConstantTakesTheRumbleId) {
   auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 2);
   auto dev = make(s);
   ASSERT_TRUE(dev->kick({0x8000, 0x8000, 60}));
-  s->used[1] = true;  // another client holds the other slot
+  s->used[1] = true;  // another client holds the other id
   ASSERT_TRUE(dev->set_constant({1000, 0}));
   EXPECT_GE(dev->constant_id(), 0);
   EXPECT_EQ(dev->rumble_id(), -1);
@@ -135,7 +135,7 @@ TEST(FfDevice, EnospcForTheConstantTakesTheRumbleSlot) {
 
 TEST(FfDevice, EnospcWithNothingToGiveUpIsRetriedLater) {
   auto s = fake_device({FF_CONSTANT}, 1);
-  s->used[0] = true;  // someone else has the only slot
+  s->used[0] = true;  // someone else has the only id
   FfCounters counters;
   auto dev = make(s, &counters);
   EXPECT_FALSE(dev->set_constant({1000, 0}));
@@ -145,7 +145,7 @@ TEST(FfDevice, EnospcWithNothingToGiveUpIsRetriedLater) {
   EXPECT_TRUE(dev->set_constant({1000, 0}));
 }
 
-TEST(FfDevice, OneSlotBelongsToTheConstant) {
+TEST(FfDevice, OneEffectIdBelongsToTheConstant) {
   auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 1);
   auto dev = make(s);
   EXPECT_EQ(dev->mode(), FfMode::constant);
@@ -155,7 +155,7 @@ TEST(FfDevice, OneSlotBelongsToTheConstant) {
   EXPECT_EQ(s->of(Call::upload).size(), 1u);
 }
 
-TEST(FfDevice, OneSlotRumbleOnlyPadKicks) {
+TEST(FfDevice, OneEffectIdRumbleOnlyPadKicks) {
   auto s = fake_device({FF_RUMBLE}, 1);
   auto dev = make(s);
   EXPECT_EQ(dev->mode(), FfMode::rumble_only);

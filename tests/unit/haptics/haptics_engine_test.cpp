@@ -149,7 +149,7 @@ TEST_F(Engine, RumbleOnlyPadGetsKicksNoConstant) {
   EXPECT_EQ(rumble_uploads(*pad).size(), 1u);
 }
 
-TEST_F(Engine, OneSlotDeviceKeepsTheConstant) {
+TEST_F(Engine, OneEffectDeviceKeepsTheConstant) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 1);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
   engine().poll(t0);

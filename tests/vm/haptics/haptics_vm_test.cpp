@@ -54,9 +54,9 @@ bool erased(const FfLog& log, std::int16_t id) {
   return false;
 }
 
-// Slots still free on the device, as the kernel counts them: another client
+// Effect ids still free on the device, as the kernel counts them: another client
 // uploads until ENOSPC (its effects go when it closes).
-int free_slots(const std::string& node) {
+int free_effect_ids(const std::string& node) {
   EvdevClient other(node);
   int n = 0;
   for (;;) {
@@ -88,13 +88,13 @@ TEST(HapticsVm, FfDeviceUploadsOnceThenTenThousandUpdatesInPlace) {
     ASSERT_TRUE(dev->set_constant({100, 0x4000}));
     const std::int16_t id = dev->constant_id();
     ASSERT_GE(id, 0);
-    const int free_before = free_slots(joy.event_node());
+    const int free_before = free_effect_ids(joy.event_node());
     for (int i = 0; i < 10000; ++i) {
       const ConstantCommand c{static_cast<std::int16_t>(i % 0x7fff), static_cast<std::uint16_t>(i * 97)};
       ASSERT_TRUE(dev->set_constant(c)) << "update " << i;
       ASSERT_EQ(dev->constant_id(), id) << "update " << i;
     }
-    EXPECT_EQ(free_slots(joy.event_node()), free_before);  // the slot count stayed flat
+    EXPECT_EQ(free_effect_ids(joy.event_node()), free_before);  // the free-id count stayed flat
     EXPECT_EQ(free_before, 15);
     EXPECT_EQ(counters.uploads.load(), 10001u);
     EXPECT_EQ(counters.errors.load(), 0u);
@@ -138,7 +138,7 @@ TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
   EXPECT_LE(static_cast<long>(constants.size()), static_cast<long>(intervals) + 2);
   EXPECT_LT(constants.size(), 10000u / 4);
   EXPECT_TRUE(played(log, id, 1));
-  EXPECT_EQ(free_slots(joy.event_node()), 15);
+  EXPECT_EQ(free_effect_ids(joy.event_node()), 15);
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
   EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
   haptics.stop();
@@ -201,7 +201,7 @@ TEST(HapticsVm, RumbleOnlyPadGetsKicksAndNoConstant) {
   EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
 }
 
-TEST(HapticsVm, OneEffectSlotHoldsTheConstant) {
+TEST(HapticsVm, OneEffectIdHoldsTheConstant) {
   VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
@@ -215,10 +215,10 @@ TEST(HapticsVm, OneEffectSlotHoldsTheConstant) {
   EXPECT_TRUE(uploads_of(log, FF_RUMBLE).empty());
   for (const auto& u : log.uploads) EXPECT_EQ(u.retval, 0);
   EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
-  EXPECT_EQ(free_slots(joy.event_node()), 0);
+  EXPECT_EQ(free_effect_ids(joy.event_node()), 0);
 }
 
-TEST(HapticsVm, OneEffectSlotRumblePadKicks) {
+TEST(HapticsVm, OneEffectIdRumblePadKicks) {
   VirtualJoystick joy(JoystickSpec::rumble_pad().effects_max(1));
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
@@ -282,7 +282,7 @@ TEST(HapticsVm, StopStopsAndErasesEveryEffect) {
   EXPECT_TRUE(erased(log, c));
   EXPECT_TRUE(erased(log, r));
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 0);
-  EXPECT_EQ(free_slots(joy.event_node()), 16);
+  EXPECT_EQ(free_effect_ids(joy.event_node()), 16);
 }
 
 TEST(HapticsVm, UnplugForgetsIdsAndReplugUploadsAgain) {
@@ -340,9 +340,9 @@ TEST(HapticsVm, KernelRefusingTheConstantFallsBackToRumble) {
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);      // the rumble
 }
 
-TEST(HapticsVm, NoFreeSlotIsCountedAndRetried) {
+TEST(HapticsVm, NoFreeIdIsCountedAndRetried) {
   VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
-  EvdevClient hog(joy.event_node());  // another program holds the only slot
+  EvdevClient hog(joy.event_node());  // another program holds the only id
   ff_effect held = support::rumble_effect(1, 1, 10);
   ASSERT_EQ(hog.upload(held), 0);
   FeedbackBoard board(1);
@@ -353,7 +353,7 @@ TEST(HapticsVm, NoFreeSlotIsCountedAndRetried) {
   haptics.flush();
   EXPECT_GE(haptics.stats().ff.errors.load(), 1u);  // ENOSPC from the kernel itself
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 0);
-  ASSERT_EQ(hog.erase(held.id), 0);  // the slot is free again: the retry gets it
+  ASSERT_EQ(hog.erase(held.id), 0);  // the id is free again: the retry gets it
   board.publish(0, contact(1.0, 0));
   ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
     for (const auto& u : l.uploads)

@@ -59,9 +59,9 @@ struct DeviceEntry {
   std::uint64_t ff_uploads = 0;
 };
 
-class Control {
+class DaemonControl {
  public:
-  virtual ~Control() = default;
+  virtual ~DaemonControl() = default;
   virtual DaemonStatus status() = 0;
   virtual std::vector<DeviceEntry> devices() = 0;
   // Each resolves to "" on success, else what went wrong (naming the

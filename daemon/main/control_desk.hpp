@@ -1,0 +1,56 @@
+// What clients ask of the daemon through the server (server::DaemonControl),
+// answered on the io thread from the parts that know: the sim host (stats,
+// pause, simulated time), the device hub (the device table), the input
+// source (device count), the haptics thread (FF uploads). Loads and resets
+// go to `load`, which builds off the loop and swaps the result in.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <kj/async.h>
+
+#include "haptics/haptics_thread.hpp"
+#include "main/device_hub.hpp"
+#include "main/input_source.hpp"
+#include "main/sim_host.hpp"
+#include "scene/scene.hpp"
+#include "server/daemon_control.hpp"
+
+namespace sculpt::daemon {
+
+class ControlDesk final : public server::DaemonControl {
+ public:
+  // Builds read()'s scene and swaps it in; resolves to "" or the error.
+  using Load = std::function<kj::Promise<std::string>(std::function<scene::Scene()> read, const char* what)>;
+
+  ControlDesk(SimHost& sims, DeviceHub& hub, Load load) : sims_(sims), hub_(hub), load_(std::move(load)) {}
+
+  // Set once they exist (the server may be asked before).
+  void set_input(const InputSource* input) { input_ = input; }
+  void set_haptics(const haptics::HapticsThread* haptics) { haptics_ = haptics; }
+  void set_started(std::chrono::steady_clock::time_point started) { started_ = started; }
+
+  // Devices attached now (or recorded), for the status and the stats.
+  std::uint64_t device_count() const { return input_ ? input_->count() : 0; }
+  std::uint64_t ff_uploads() const { return haptics_ ? haptics_->stats().ff.uploads.load() : 0; }
+
+  server::DaemonStatus status() override;
+  std::vector<server::DeviceEntry> devices() override { return hub_.entries(); }
+  kj::Promise<std::string> load_scene(const std::string& path) override;
+  kj::Promise<std::string> reset() override;
+  std::string set_paused(bool paused) override { return sims_.set_paused(paused); }
+  bool paused_now() override { return sims_.paused(); }
+
+ private:
+  SimHost& sims_;
+  DeviceHub& hub_;
+  Load load_;
+  const InputSource* input_ = nullptr;
+  const haptics::HapticsThread* haptics_ = nullptr;
+  std::chrono::steady_clock::time_point started_{};
+};
+
+}  // namespace sculpt::daemon

@@ -1,0 +1,128 @@
+#include "main/device_hub.hpp"
+
+#include <bit>
+
+#include "loop/scene_tools.hpp"
+#include "main/log.hpp"
+
+namespace sculpt::daemon {
+namespace {
+
+// The tool driver moves tool component i along the scene's axis i, so the
+// binding's components are the haptics' axes.
+std::vector<haptics::ToolStick> tool_sticks(const input::DeviceBinding& b, std::size_t tools) {
+  std::vector<haptics::ToolStick> out;
+  for (std::size_t t = 0; t < tools; ++t) {
+    if (!b.drives(t)) continue;
+    const input::StickPlane p = input::stick_plane(b, t);
+    haptics::ToolStick ts;
+    ts.tool = static_cast<int>(t);
+    if (p.valid) {
+      ts.plane.x_axis = p.x_component;
+      ts.plane.y_axis = p.y_component;
+      ts.plane.x_sign = p.x_scale;
+      ts.plane.y_sign = p.y_scale;
+    } else {
+      ts.plane.x_axis = -1;
+      ts.plane.y_axis = -1;
+    }
+    out.push_back(ts);
+  }
+  return out;
+}
+
+}  // namespace
+
+DeviceHub::DeviceHub(bool device_clock, double input_delay_ms, std::function<std::uint64_t()> current_tick)
+    : device_clock_(device_clock), current_tick_(std::move(current_tick)), clock_(1000.0, input_delay_ms) {}
+
+void DeviceHub::set_server(server::Server* server) {
+  server_ = server;
+  tell_server();
+}
+
+void DeviceHub::use_scene(const scene::Scene& scene, std::size_t tools, SculptStages& stages, double rate) {
+  tools_ = tools;
+  stages_ = &stages;
+  clock_.set_rate(rate);
+  router_.set_routes(loop::tool_routes(scene));
+}
+
+void DeviceHub::push(const input::InputMessage& m, const char* what) {
+  if (stages_->ring().try_push(m)) return;
+  // The sim thread drains the ring every tick; a full ring means it is stuck.
+  if (dropped_++ % 1000 == 0) log::warning("input ring full: dropped a {} message ({} so far)", what, dropped_);
+}
+
+input::DeviceBinding DeviceHub::bind(std::uint8_t slot, const input::DeviceInfo& info) {
+  router_.detach(slot);
+  const input::DeviceBinding b = router_.attach(slot, info, mapping_);
+  for (const auto& w : router_.warnings()) log::warning("{}", w);
+  table_.attached(slot, info, b);
+  tell_server();
+  return b;
+}
+
+void DeviceHub::rebind(const input::DeviceManager& devices) {
+  for (const auto& [slot, info] : devices.devices()) on_attach(slot, info);
+}
+
+void DeviceHub::carry_over(SculptStages& old, const std::vector<input::DeviceInfo>* recorded) {
+  if (recorded)
+    for (std::uint8_t slot = 0; slot < recorded->size(); ++slot)
+      if (old.mapper().attached(slot))
+        push(input::InputMessage::attach(slot, bind(slot, (*recorded)[slot])), "attach");
+  while (auto m = old.ring().try_pop()) push(*m, "queued");
+}
+
+std::vector<server::DeviceEntry> DeviceHub::entries() const {
+  std::vector<server::DeviceEntry> out;
+  for (const auto& [slot, d] : table_.entries()) {
+    out.push_back(d);
+    static_assert(haptics::HapticsStats::kSlots >= input::kMaxDevices, "a device slot without an FF counter");
+    if (haptics_ && slot < haptics::HapticsStats::kSlots)
+      out.back().ff_uploads = haptics_->stats().slot_uploads[slot].load(std::memory_order_relaxed);
+  }
+  return out;
+}
+
+void DeviceHub::tell_server() {
+  if (server_) server_->set_tool_devices(table_.slot_of_tools(tools_));
+}
+
+void DeviceHub::on_attach(std::uint8_t slot, const input::DeviceInfo& info) {
+  const input::DeviceBinding b = bind(slot, info);
+  clock_.forget(slot);
+  push(input::InputMessage::attach(slot, b), "attach");
+  log::info("device {}: {} [{}] on slot {}, drives {} tool(s)", info.node.empty() ? "(recorded)" : info.node,
+            info.name, input::to_string(info.kind), slot, std::popcount(b.tool_mask));
+  if (haptics_ && !info.node.empty()) haptics_->attach(slot, info.node, tool_sticks(b, tools_));
+}
+
+void DeviceHub::on_detach(std::uint8_t slot) {
+  router_.detach(slot);
+  table_.detached(slot);
+  tell_server();
+  clock_.forget(slot);
+  push(input::InputMessage::detach(slot), "detach");
+  if (haptics_) haptics_->detach(slot);
+  log::info("device on slot {} is gone", slot);
+}
+
+void DeviceHub::on_frame(const input::InputFrame& frame) {
+  input::InputFrame f = frame;
+  if (device_clock_) {
+    const input::DeviceClock::Placement p = clock_.place(f, current_tick_());
+    if (p.anchored)
+      log::debug("slot {}: device clock anchored: device time {} us applies on tick {}", f.slot, f.device_time_us,
+                 p.tick);
+    f.at_tick = p.tick;
+  }
+  push(input::InputMessage::of_frame(f), "frame");
+}
+
+void DeviceHub::on_log(int priority, const std::string& message) {
+  log::write_priority(priority, message);
+}
+
+}  // namespace sculpt::daemon

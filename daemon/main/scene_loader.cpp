@@ -1,0 +1,59 @@
+#include "main/scene_loader.hpp"
+
+#include <optional>
+
+#include "main/log.hpp"
+
+namespace sculpt::daemon {
+
+void log_scene_warnings(const scene::Scene& s) {
+  for (const auto& w : s.warnings) log::warning("scene {}: {}", s.file.string(), w);
+  for (const auto& m : s.meshes)
+    for (const auto& w : m.loaded.warnings) log::warning("scene {}: mesh {}: {}", s.file.string(), m.name, w);
+}
+
+std::size_t vertices_of(const scene::Scene& s) {
+  std::size_t n = 0;
+  for (const auto& m : s.meshes) n += m.loaded.mesh.positions.size();
+  return n;
+}
+
+std::vector<std::string> mesh_names(const scene::Scene& s) {
+  std::vector<std::string> names;
+  for (const auto& m : s.meshes) names.push_back(m.name);
+  return names;
+}
+
+kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, SimulationSettings settings,
+                                           const char* what) {
+  if (worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");
+  struct Job {
+    std::optional<Simulation> built;
+    std::string error;
+  };
+  auto job = std::make_shared<Job>();
+  haptics::FeedbackBoard& board = board_;
+  auto done = worker_.run([job, read = std::move(read), settings, &board] {
+    try {
+      job->built.emplace(build_simulation(read(), settings, board));
+    } catch (const std::exception& e) {
+      job->error = e.what();
+    }
+  }).then([this, job, what]() -> std::string {
+    if (!job->error.empty() || stopping_) {
+      if (!job->error.empty()) log::warning("{}: {}; keeping the current sculpt", what, job->error);
+      return job->error.empty() ? std::string("the daemon is stopping") : job->error;
+    }
+    log_scene_warnings(job->built->scene);
+    swap_in_(std::move(*job->built), what);
+    return std::string();
+  }, [what](kj::Exception&& e) -> std::string {
+    log::err("{}: {}", what, e.getDescription().cStr());
+    return e.getDescription().cStr();
+  });
+  auto forked = done.fork();
+  tasks_.add(forked.addBranch().ignoreResult());
+  return forked.addBranch();
+}
+
+}  // namespace sculpt::daemon

@@ -1,0 +1,61 @@
+// Scene loads off the io loop: a load (or a reset) builds the new
+// simulation on the worker thread while the io loop serves clients and
+// feeds the watchdog, then hands it to the io thread to swap in; what the
+// swap replaced is freed on the disposer thread (a big world takes a while
+// to free, longer still under ASan's quarantine). One load at a time.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <kj/async.h>
+
+#include "haptics/feedback_board.hpp"
+#include "main/simulation.hpp"
+#include "main/worker.hpp"
+#include "scene/scene.hpp"
+
+namespace sculpt::daemon {
+
+// The scene's own warnings and its meshes', one log line each.
+void log_scene_warnings(const scene::Scene& s);
+std::size_t vertices_of(const scene::Scene& s);
+// Its meshes' names, in body order.
+std::vector<std::string> mesh_names(const scene::Scene& s);
+
+class SceneLoader {
+ public:
+  // Swaps a built simulation in, on the io thread.
+  using SwapIn = std::function<void(Simulation next, const char* what)>;
+
+  // `tasks` keeps the workers' promises; `stopping` turns a finished build
+  // away. Both outlive the loader.
+  SceneLoader(kj::TaskSet& tasks, const bool& stopping, haptics::FeedbackBoard& board, SwapIn swap_in)
+      : tasks_(tasks), stopping_(stopping), board_(board), swap_in_(std::move(swap_in)) {}
+
+  // Builds read()'s scene with `settings` on the worker, then swaps it in.
+  // Resolves to "" or the error (the running sculpt is then untouched). The
+  // build goes on when the caller goes away (a client disconnecting).
+  kj::Promise<std::string> load(std::function<scene::Scene()> read, SimulationSettings settings, const char* what);
+
+  // Frees `parts` on the disposer thread, or right here when that is still
+  // busy with the last ones.
+  template <class Parts>
+  void dispose(Parts parts) {
+    auto old = std::make_shared<Parts>(std::move(parts));
+    if (disposer_.busy()) return;  // freed right here, as `old` goes
+    tasks_.add(disposer_.run([old = std::move(old)]() mutable { old.reset(); }));
+  }
+
+ private:
+  kj::TaskSet& tasks_;
+  const bool& stopping_;
+  haptics::FeedbackBoard& board_;
+  SwapIn swap_in_;
+  Worker worker_;    // builds
+  Worker disposer_;  // frees what a swap replaced
+};
+
+}  // namespace sculpt::daemon

@@ -1,0 +1,94 @@
+// The running simulation and its sim thread, on the io thread: one scene's
+// world, stages and published state (main/simulation.hpp) installed at a
+// time, the thread that ticks them, and the timeline across scene swaps
+// (tick numbers continue, simulated time adds up over the rates of the
+// scenes that ran). A thread that could not start is retried by
+// restart_if_missing(); meanwhile the tick and pause state it will start
+// with stand in for its own.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "loop/sim_thread.hpp"
+#include "main/config.hpp"
+#include "main/simulation.hpp"
+
+namespace sculpt::daemon {
+
+class SimHost {
+ public:
+  // What a swap took out, for the caller to carry over and free.
+  struct Outgoing {
+    scene::Scene scene;
+    std::unique_ptr<SculptStages> stages;
+    std::unique_ptr<server::PublishedState> published;
+    std::unique_ptr<sim::World<float>> world;
+  };
+
+  // Reads the sim thread's settings (realtime, wake_early_us, duration_s)
+  // from `config` at each start: `config` outlives the host.
+  explicit SimHost(const DaemonConfig& config) : cfg_(config) {}
+  ~SimHost() { stop(); }
+  SimHost(const SimHost&) = delete;
+  SimHost& operator=(const SimHost&) = delete;
+
+  // The first scene, before any thread runs; start() follows.
+  void install(Simulation first);
+  // Starts the thread at `first_tick`. Throws when it cannot be created.
+  void start(std::uint64_t first_tick, bool paused);
+  // Stops the running thread and puts `next` in its place, its ticks going
+  // on from where the old one stopped; the thread is not started here
+  // (restart_if_missing() does).
+  Outgoing swap(Simulation next);
+  // Starts the thread of an installed scene that has none running; logs a
+  // failure once per swap.
+  void restart_if_missing();
+  void stop();
+
+  const scene::Scene& scene() const { return scene_; }
+  double rate() const { return rate_; }
+  std::size_t tools() const { return tools_; }
+  SculptStages& stages() { return *stages_; }
+  const sim::World<float>& world() const { return *world_; }
+  server::PublishedState& published() { return *published_; }
+  // What the server shows of the installed scene, taken once by it.
+  server::SceneInfo take_scene_info() { return std::move(scene_info_); }
+  std::unique_ptr<server::PublishedReader> take_reader() { return std::move(reader_); }
+
+  // nullptr while no thread runs.
+  loop::SimThread* thread() { return sim_.get(); }
+  std::uint64_t current_tick() const { return sim_ ? sim_->ticks() : pending_start_tick_; }
+  double simulated_s() const;
+  // The running thread's stats (zeros while none runs).
+  const loop::LoopStats& stats() const { return sim_ ? sim_->stats() : idle_stats_; }
+  bool paused() const { return sim_ ? sim_->paused() : pending_start_paused_; }
+  // "" or why the request could not be made.
+  std::string set_paused(bool paused);
+
+ private:
+  void take_in(Simulation p, std::uint64_t first_tick);
+  loop::SimThreadOptions thread_options(std::uint64_t first_tick) const;
+
+  const DaemonConfig& cfg_;
+  scene::Scene scene_;
+  double rate_ = 1000.0;
+  std::size_t tools_ = 0;
+  std::unique_ptr<sim::World<float>> world_;
+  std::unique_ptr<SculptStages> stages_;
+  std::unique_ptr<server::PublishedState> published_;
+  server::SceneInfo scene_info_;
+  std::unique_ptr<server::PublishedReader> reader_;
+  std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
+  loop::LoopStats idle_stats_;
+  std::uint64_t pending_start_tick_ = 0;
+  bool pending_start_paused_ = false;
+  bool start_failure_logged_ = false;
+  // The scenes before this one ran this long; this one from this tick on.
+  double simulated_before_s_ = 0;
+  std::uint64_t segment_first_tick_ = 0;
+};
+
+}  // namespace sculpt::daemon
