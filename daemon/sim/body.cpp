@@ -30,7 +30,7 @@ std::uint32_t spread_bits(std::uint32_t v) {
 
 // The ELL width: wide enough that at most ~2% of vertices spill into the
 // (scalar) overflow list, never wider than 16.
-int choose_slots(const std::vector<int>& degree) {
+int choose_columns(const std::vector<int>& degree) {
   if (degree.empty()) return 0;
   std::vector<int> histogram(17, 0);
   for (int d : degree) ++histogram[std::min(d, 16)];
@@ -62,7 +62,7 @@ kernel::ForceArgs<S> Body<S>::network_args() const {
   fa.x = st.x.data(), fa.y = st.y.data(), fa.z = st.z.data();
   fa.wx = st.wx.data(), fa.wy = st.wy.data(), fa.wz = st.wz.data();
   fa.rx = st.rx.data(), fa.ry = st.ry.data(), fa.rz = st.rz.data();
-  fa.nbr = net.nbr.data(), fa.rest_length = net.rest_length.data(), fa.stride = net.n, fa.slots = net.slots;
+  fa.nbr = net.nbr.data(), fa.rest_length = net.rest_length.data(), fa.stride = net.n, fa.columns = net.columns;
   fa.overflow = net.overflow.data();
   if constexpr (std::is_same_v<S, float>)
     if (!rec.packed[0].empty()) fa.packed = rec.packed[rec.packed_cur].data();
@@ -182,13 +182,13 @@ void validate_input(const TriangleMesh& mesh, const Material& material, const Bo
 template <class S>
 void reserve_arena(Body<S>& b) {
   if (b.n < kArenaMinVertices) return;
-  constexpr std::size_t kMaxSlots = 16;  // choose_slots' widest ELL
+  constexpr std::size_t kMaxColumns = 16;  // choose_columns' widest ELL
   constexpr std::size_t scalars = 9       // x..z, wx..wz, rx..rz
                                   + 3     // ax..az
                                   + 3     // clay: srx..srz
-                                  + 2 * kMaxSlots  // rest_length, clay: slen
+                                  + 2 * kMaxColumns  // rest_length, clay: slen
                                   + 16;   // two packed records
-  constexpr std::size_t shorts = 3 + kMaxSlots;  // snapshot sx..sz, nbr
+  constexpr std::size_t shorts = 3 + kMaxColumns;  // snapshot sx..sz, nbr
   b.arena = PageArena(std::size_t{b.n} * (scalars * sizeof(S) + shorts * 2) + 32 * AlignedBuffer<S>::kAlignment);
 }
 
@@ -279,7 +279,7 @@ Csr connect_springs(Body<S>& b, const TriangleMesh& mesh) {
     degree[i] = static_cast<int>(adj.off[i + 1] - adj.off[i]);
     b.max_degree = std::max(b.max_degree, degree[i]);
   }
-  b.slots = choose_slots(degree);
+  b.columns = choose_columns(degree);
   return adj;
 }
 
@@ -302,20 +302,20 @@ bool within_ring_reach(std::uint32_t i, std::int32_t j) {
   return (bi > bj ? bi - bj : bj - bi) <= kernel::kRingReach;
 }
 
-// Each row in sorted order: the near neighbours fill the slots, the rest (past
+// Each row in sorted order: the near neighbours fill the columns, the rest (past
 // the width, or beyond ring reach) go to the overflow list; padding is the
 // vertex itself (offset 0, rest length 0: zero force).
 template <class S>
 void build_ell(Body<S>& b, const Csr& adj) {
   const std::uint32_t n = b.n;
   const bool spring_model = has_rest_lengths(b);
-  b.nbr.resize(static_cast<std::size_t>(b.slots) * n, 0, &b.arena);
-  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.slots) * n, S(0), &b.arena);
+  b.nbr.resize(static_cast<std::size_t>(b.columns) * n, 0, &b.arena);
+  if (spring_model) b.rest_length.resize(static_cast<std::size_t>(b.columns) * n, S(0), &b.arena);
   b.overflow_begin.assign(b.blocks + 1, 0);
   for (std::uint32_t i = 0; i < n; ++i) {
     int s = 0;
     for (const std::int32_t j : adj[i]) {
-      if (s < b.slots && within_ring_reach(i, j)) {
+      if (s < b.columns && within_ring_reach(i, j)) {
         b.nbr[static_cast<std::size_t>(s) * n + i] = static_cast<std::int16_t>(std::int64_t{j} - i);
         if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = rest_distance(b, i, j);
         ++s;
@@ -323,7 +323,7 @@ void build_ell(Body<S>& b, const Csr& adj) {
         b.overflow.push_back({i, j, rest_distance(b, i, j)});
       }
     }
-    for (; s < b.slots; ++s) {
+    for (; s < b.columns; ++s) {
       b.nbr[static_cast<std::size_t>(s) * n + i] = 0;
       if (spring_model) b.rest_length[static_cast<std::size_t>(s) * n + i] = S(0);
     }

@@ -1,6 +1,6 @@
 // One mesh as a spring network, laid out for the kernels: vertices reordered
 // along a Morton curve (spatially compact blocks of kernel::kBlock vertices),
-// structure of arrays, 64-byte aligned, neighbours in a slot-major padded ELL
+// structure of arrays, 64-byte aligned, neighbours in a column-major padded ELL
 // table with an overflow list. Everything is sized at construction; stepping
 // (in World) never allocates.
 #pragma once
@@ -96,17 +96,17 @@ struct BodyNetwork {
   std::uint32_t n = 0;         // vertices
   std::uint32_t blocks = 0;    // ceil(n / kBlock)
   std::uint32_t springs = 0;   // unique edges with two distinct ends
-  int slots = 0;               // ELL width
+  int columns = 0;               // ELL width
   int max_degree = 0;
   S mean_edge = 0;             // mean rest edge length (clay yield scale)
   double extent = 0;           // rest bounding-box diagonal
   std::vector<std::uint32_t> to_original;  // internal → original vertex index
   std::vector<std::uint32_t> to_internal;  // original → internal
-  // Slot s of vertex i: neighbour − i, slot-major, slots × n. Springs whose
+  // Column s of vertex i: neighbour − i, column-major, columns × n. Springs whose
   // ends lie more than kernel::kRingReach blocks apart go to the overflow list.
   // (So do a high-degree vertex's springs past the ELL width.)
   AlignedBuffer<std::int16_t> nbr;
-  AlignedBuffer<S> rest_length;  // slots × n (spring model only)
+  AlignedBuffer<S> rest_length;  // columns × n (spring model only)
   std::vector<kernel::Overflow<S>> overflow;
   std::vector<std::uint32_t> overflow_begin;  // blocks + 1
   // Triangles, grouped by owning block (the block of their lowest vertex), as

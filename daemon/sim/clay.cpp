@@ -58,7 +58,7 @@ void apply_yields(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const
   // Springs: perfect plasticity, strain clamped to ±yield; both directed
   // copies of a spring get the same bits, wherever the other one lives.
   auto set_mirror = [&](std::uint32_t j, std::uint32_t i, S value) {
-    for (int s = 0; s < b.slots; ++s) {
+    for (int s = 0; s < b.columns; ++s) {
       const std::size_t e = static_cast<std::size_t>(s) * b.n + j;
       if (static_cast<std::int32_t>(j) + b.nbr[e] == static_cast<std::int32_t>(i) && j != i) {
         b.rest_length[e] = value;
@@ -86,7 +86,7 @@ void apply_yields(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const
   // An unmarked entry whose mirror yields earlier in this pass gets the value
   // the exact test would have left unchanged (same length, same clamp), so
   // skipping it is still exact.
-  for (int s = 0; s < b.slots; ++s)
+  for (int s = 0; s < b.columns; ++s)
     each_marked(mask + kRow * (1 + s), [&](std::uint32_t i) {
       const std::size_t e = static_cast<std::size_t>(s) * b.n + i;
       yield_spring(i, static_cast<std::int32_t>(i) + b.nbr[e], b.rest_length[e]);

@@ -21,7 +21,7 @@ S clay_anchor_limit(const Body<S>& b) {
 // Bytes of one block's yield mask: one bit per vertex for the anchors and for each ELL column.
 template <class S>
 std::size_t clay_mask_bytes(const Body<S>& b) {
-  return (1 + static_cast<std::size_t>(b.slots)) * (kernel::kBlock / 8);
+  return (1 + static_cast<std::size_t>(b.columns)) * (kernel::kBlock / 8);
 }
 
 // Yield block blk on the present x (the steppers that test before they move).

@@ -18,7 +18,7 @@ void snapshot_block(Body<S>& b, std::uint32_t blk) {
     std::copy(b.ry.data() + b0, b.ry.data() + b1, b.sry.data() + b0);
     std::copy(b.rz.data() + b0, b.rz.data() + b1, b.srz.data() + b0);
     if (!b.slen.empty())
-      for (int s = 0; s < b.slots; ++s) {
+      for (int s = 0; s < b.columns; ++s) {
         const std::size_t o = static_cast<std::size_t>(s) * b.n;
         std::copy(b.rest_length.data() + o + b0, b.rest_length.data() + o + b1, b.slen.data() + o + b0);
       }

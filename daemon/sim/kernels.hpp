@@ -1,7 +1,7 @@
 // The hot loops of a substep, over one block of consecutive (spatially
 // ordered) vertices: gather the spring forces by vertex (no scatter, so no
 // write conflicts and a fixed summation order), then integrate. Structure of
-// arrays, neighbours in a slot-major padded ELL table (slot s of vertex i is
+// arrays, neighbours in a column-major padded ELL table (column s of vertex i is
 // i + nbr[s·stride + i]; padding points at i itself and has rest length 0, which
 // gives exactly zero force), rare high-degree extras in an overflow list.
 // Every loop is element-wise, so the AVX2 clone and the baseline x86-64 clone
@@ -21,7 +21,7 @@ inline constexpr std::uint32_t kBlock = 128;
 // The ring of packed records (elastic float bodies, AVX2): block c's
 // records sit at ring block c mod kRingBlocks (fewer for a small body) while
 // the blocks within kRingReach of it step. A spring whose ends lie farther apart in blocks is
-// never in an ELL slot (every body, so every path sums the same springs in
+// never in an ELL column (every body, so every path sums the same springs in
 // the same order); it goes to the overflow list, and the ring reads its far
 // end from Body::far_records. docs/simulation.md has the measurements.
 inline constexpr std::uint32_t kRingBlocks = 64;
@@ -54,13 +54,13 @@ struct ForceArgs {
   const std::int16_t* nbr;  // neighbour − vertex
   const S* rest_length;   // ELL rest lengths (spring model), same layout as nbr
   std::uint32_t stride;
-  int slots;
+  int columns;
   const Overflow<S>* overflow;  // sorted by i
   S stiffness, damping, anchor, anchor_damping;
   S inv_mass, inv_dt;
   S gravity_force[3];     // m·g, or 0
   S *ax, *ay, *az;        // out: accelerations, ax[i − acc_origin] for vertex i
-  std::uint32_t acc_origin = 0;  // 0 for a whole body's arrays; a block's first vertex for a pool slot
+  std::uint32_t acc_origin = 0;  // 0 for a whole body's arrays; a block's first vertex for the scratch
   // Optional (float): per vertex {x, y, z, 0, vx, vy, vz, 0} (linear model: u = x − r), 32-byte
   // aligned, kept current by pack(). Lets the AVX2 path fetch a neighbour with
   // two 16-byte loads instead of six scalar gathers. Same results, bit for bit.
@@ -133,7 +133,7 @@ void pack_into(const ForceArgs<float>& a, ForceModel model, Velocity vel, float*
 // (exact tests, no second pass over the neighbours); a partial block from
 // yield_candidates. The caller applies the yields afterwards.
 struct YieldArgs {
-  std::uint8_t* mask;  // (1 + slots) · kBlock/8 bytes
+  std::uint8_t* mask;  // (1 + columns) · kBlock/8 bytes
   float yield, anchor_limit;
 };
 BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs<float>& in, ForceModel model,
@@ -144,8 +144,8 @@ BlockSums<float> step_block_fused(const ForceArgs<float>& a, const IntegrateArgs
 // Clay: marks the entries of block [begin, end) (≤ kBlock vertices) that might
 // yield, conservatively (squared lengths, a relative margin of 1e-4): one bit
 // per vertex, kBlock/8 bytes per row; row 0 the anchors (|x − r| near or past
-// anchor_limit), row 1 + s slot s's springs (strain near or past ±yield; only
-// with `springs`). Uses x, y, z, rx, ry, rz, nbr, rest_length, stride, slots,
+// anchor_limit), row 1 + s column s's springs (strain near or past ±yield; only
+// with `springs`). Uses x, y, z, rx, ry, rz, nbr, rest_length, stride, columns,
 // and packed (spring model: neighbours' positions from the current packed
 // records, which must match x, y, z; or null).
 // An unmarked entry is one the exact test would leave alone. Returns whether any

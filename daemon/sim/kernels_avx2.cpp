@@ -31,13 +31,13 @@ bool detect_avx2() {
 // compiler's own loop (forces_portable) does in more instructions, extracting
 // each offset from a vector first. Identical bits either way.
 template <ForceModel M, Velocity V, bool Packed, bool Ring = false>
-__attribute__((target("avx2"), always_inline)) inline void slots_avx2(const ForceArgs<float>& A, std::uint32_t begin,
+__attribute__((target("avx2"), always_inline)) inline void columns_avx2(const ForceArgs<float>& A, std::uint32_t begin,
                                                                        std::uint32_t cnt, BlockScratch<float>& w) {
   const float k = A.stiffness, c = A.damping, quarter_k = 0.25f * k;
   const __m256 k8 = _mm256_set1_ps(k), c8 = _mm256_set1_ps(c), qk8 = _mm256_set1_ps(quarter_k);
   const __m256 one8 = _mm256_set1_ps(1.0f), tiny8 = _mm256_set1_ps(Tiny<float>::value);
-  // Vertex groups outside, slots inside: the accumulators stay in registers
-  // and each vertex still sums its springs in slot order (same bits).
+  // Vertex groups outside, columns inside: the accumulators stay in registers
+  // and each vertex still sums its springs in column order (same bits).
   const std::size_t stride = A.stride;
   const std::int16_t* __restrict nb0 = A.nbr + begin;
   const float* __restrict L0 = M == ForceModel::spring ? A.rest_length + begin : nullptr;  // linear: none
@@ -53,14 +53,14 @@ __attribute__((target("avx2"), always_inline)) inline void slots_avx2(const Forc
     Fetch fetch;
     if constexpr (Packed) fetch = {A.packed, v, A.ring_mask};
     else fetch = {&A, v};
-    accumulate_slots8<M>(fetch, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8, one8,
+    accumulate_columns8<M>(fetch, nb0 + i, M == ForceModel::spring ? L0 + i : nullptr, stride, A.columns, k8, c8, qk8, one8,
                          tiny8, xi, yi, zi, vxi, vyi, vzi, fx, fy, fz, pe, one8, one8, nullptr);
     store_sums8(w, i, fx, fy, fz, pe);
   }
   // The rest (a body's last block), one vertex at a time.
   for (; i < cnt; ++i) {
     const std::uint32_t v = begin + i;
-    for (int s = 0; s < A.slots; ++s) {
+    for (int s = 0; s < A.columns; ++s) {
       const std::int32_t j = static_cast<std::int32_t>(v) + nb0[s * stride + i];
       float xj, yj, zj, vxj, vyj, vzj;
       if constexpr (Packed) {
@@ -89,7 +89,7 @@ __attribute__((target("avx2"), always_inline)) inline void forces_avx2_block(con
                                                                               std::uint32_t ob, std::uint32_t oe,
                                                                               BlockScratch<float>& w) {
   init_block<float, V>(A, begin, cnt, w);
-  slots_avx2<M, V, Packed, Ring>(A, begin, cnt, w);
+  columns_avx2<M, V, Packed, Ring>(A, begin, cnt, w);
   overflow_block<float, M, V, Packed, Ring>(A, begin, ob, oe, w);
 }
 
@@ -169,12 +169,12 @@ __attribute__((target("avx2"))) BlockSums<float> fused_avx2(const ForceArgs<floa
 }
 
 // A whole block (kBlock vertices) in one pass over groups of eight, with the
-// state in registers: anchor and own velocity, neighbour slots, integrate,
+// state in registers: anchor and own velocity, neighbour columns, integrate,
 // speed sums, pack. The same IEEE operations in the same order as
 // forces_avx2_block + write_acc + integrate_loop + pack_avx2 (identical bits),
 // without the scalar prologue loops, the acceleration round trip and the
 // re-reads. Blocks with overflow neighbours keep the forces in the scratch
-// until their extras are added (a vertex sums slots first, then extras).
+// until their extras are added (a vertex sums columns first, then extras).
 template <ForceModel M, Velocity V, Integrator I, bool Yield = false, bool Ring = false>
 __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const ForceArgs<float>& A,
                                                                        const IntegrateArgs<float>& In,
@@ -230,8 +230,8 @@ __attribute__((target("avx2"))) BlockSums<float> fused_full_block_avx2(const For
     __m256 xi = x, yi = y, zi = z;
     if constexpr (M == ForceModel::linear)
       xi = _mm256_sub_ps(x, rx), yi = _mm256_sub_ps(y, ry), zi = _mm256_sub_ps(z, rz);
-    accumulate_slots8<M, Yield>(FromRecords<Ring>{P, begin + i, A.ring_mask}, nb0 + i,
-                                M == ForceModel::spring ? L0 + i : nullptr, stride, A.slots, k8, c8, qk8,
+    accumulate_columns8<M, Yield>(FromRecords<Ring>{P, begin + i, A.ring_mask}, nb0 + i,
+                                M == ForceModel::spring ? L0 + i : nullptr, stride, A.columns, k8, c8, qk8,
                                 one8, tiny8, xi, yi, zi, vx, vy, vz, fx, fy, fz, pe, yl.up8, yl.down8,
                                 marks ? marks + kBlock / 8 + i / 8 : nullptr);
     if (extras) {
@@ -295,7 +295,7 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
   const float* __restrict Z = a.z;
   const float* __restrict P = a.packed;
   const std::size_t stride = a.stride;
-  const int slots = springs ? a.slots : 0;
+  const int columns = springs ? a.columns : 0;
   alignas(16) std::uint8_t mask[kRow];
   const std::uint32_t whole = begin + (end - begin) / 8 * 8;
   const float thr2s = (anchor_limit * anchor_limit) * kYieldShrink<float>;
@@ -320,7 +320,7 @@ __attribute__((target("avx2"))) bool yield_candidates_avx2(const ForceArgs<float
   std::memcpy(mask_out, mask, kRow);
   const __m256 up = _mm256_set1_ps(1.0f + yield), down = _mm256_set1_ps(1.0f - yield);
   const __m256 shrink = _mm256_set1_ps(kYieldShrink<float>), grow = _mm256_set1_ps(kYieldGrow<float>);
-  for (int s = 0; s < slots; ++s) {
+  for (int s = 0; s < columns; ++s) {
     const std::int16_t* __restrict nb = a.nbr + s * stride;
     const float* __restrict L = a.rest_length + s * stride;
     std::memset(mask, 0, kRow);

@@ -85,7 +85,7 @@ __attribute__((target("avx2"), always_inline)) inline __m256 gather8(const float
   return _mm256_setr_ps(a[j[0]], a[j[1]], a[j[2]], a[j[3]], a[j[4]], a[j[5]], a[j[6]], a[j[7]]);
 }
 
-// How accumulate_slots8 fetches the eight neighbours of one slot row (nb:
+// How accumulate_columns8 fetches the eight neighbours of one column row (nb:
 // offsets from the group's first vertex) as what pair_force compares: the
 // position (linear model: u = p − r) and the velocity.
 // From the packed records: two 16-byte loads and a transpose per eight.
@@ -136,20 +136,20 @@ struct FromArrays {
   }
 };
 
-// The neighbour slots of eight consecutive vertices (nb0 and L0 at the first
-// one's slot-0 entries), each row's neighbours from `fetch`. Every arithmetic
+// The neighbour columns of eight consecutive vertices (nb0 and L0 at the first
+// one's column-0 entries), each row's neighbours from `fetch`. Every arithmetic
 // step is the one pair_force() does, in the same order, without fused
-// multiply-adds: identical bits. Accumulates into f and pe, in slot order.
+// multiply-adds: identical bits. Accumulates into f and pe, in column order.
 // With Yield (spring model), also marks[s · kBlock/8] = the springs whose
 // length is past ±yield of their rest length: yield_block's exact test
 // (same length bits, same thresholds), from the length the force needs anyway.
 template <ForceModel M, bool Yield = false, class Fetch>
-__attribute__((target("avx2"), always_inline)) inline void accumulate_slots8(
+__attribute__((target("avx2"), always_inline)) inline void accumulate_columns8(
     const Fetch& fetch, const std::int16_t* __restrict nb0, const float* __restrict L0, std::size_t stride,
-    int slots, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
+    int columns, __m256 k8, __m256 c8, __m256 qk8, __m256 one8, __m256 tiny8, __m256 xi, __m256 yi, __m256 zi,
     __m256 vxi, __m256 vyi, __m256 vzi, __m256& fx, __m256& fy, __m256& fz, __m256& pe, __m256 up8, __m256 down8,
     std::uint8_t* marks) {
-  for (int s = 0; s < slots; ++s) {
+  for (int s = 0; s < columns; ++s) {
     __m256 xj, yj, zj, vxj, vyj, vzj;
     fetch(nb0 + s * stride, xj, yj, zj, vxj, vyj, vzj);
     const __m256 dx = _mm256_sub_ps(xj, xi), dy = _mm256_sub_ps(yj, yi), dz = _mm256_sub_ps(zj, zi);

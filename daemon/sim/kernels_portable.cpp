@@ -27,7 +27,7 @@ namespace {
 // Ring: neighbours from the ring of packed records (a.ring_mask), which hold
 // what the arrays would give (x or u = x − r, w·1/dt): the same bits.
 template <class S, ForceModel M, Velocity V, bool Ring = false>
-[[gnu::always_inline]] inline void slots_generic(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
+[[gnu::always_inline]] inline void columns_generic(const ForceArgs<S>& A, std::uint32_t begin, std::uint32_t cnt,
                                                  BlockScratch<S>& w) {
   const S* __restrict X = A.x;
   const S* __restrict Y = A.y;
@@ -39,7 +39,7 @@ template <class S, ForceModel M, Velocity V, bool Ring = false>
   const S* __restrict RY = A.ry;
   const S* __restrict RZ = A.rz;
   const S inv_dt = A.inv_dt, k = A.stiffness, c = A.damping, quarter_k = S(0.25) * k;
-  for (int s = 0; s < A.slots; ++s) {
+  for (int s = 0; s < A.columns; ++s) {
     const std::int16_t* __restrict nb = A.nbr + static_cast<std::size_t>(s) * A.stride + begin;
     const S* __restrict L = M == ForceModel::spring ? A.rest_length + static_cast<std::size_t>(s) * A.stride + begin
                                                     : nullptr;
@@ -77,7 +77,7 @@ template <class S, ForceModel M, Velocity V, bool Ring = false>
   BlockScratch<S> w;
   const std::uint32_t cnt = end - begin;
   init_block<S, V>(A, begin, cnt, w);
-  slots_generic<S, M, V, Ring>(A, begin, cnt, w);
+  columns_generic<S, M, V, Ring>(A, begin, cnt, w);
   overflow_block<S, M, V, Ring, Ring>(A, begin, ob, oe, w);
   return write_acc<S>(A, begin, cnt, w);
 }

@@ -44,7 +44,7 @@ template <class S>
 }
 
 // One directed spring i→j: adds its force on i to f and its half energy to pe.
-// Shared by the vectorised slot loop and the scalar overflow loop so both round alike.
+// Shared by the vectorised column loop and the scalar overflow loop so both round alike.
 template <class S, ForceModel M>
 [[gnu::always_inline]] inline void pair_force(S dx, S dy, S dz, S dvx, S dvy, S dvz, S erx, S ery, S erz, S L, S k,
                                               S c, S quarter_k, S& fx, S& fy, S& fz, S& pe) {

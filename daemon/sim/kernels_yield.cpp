@@ -15,7 +15,7 @@ template <class S>
 bool yield_candidates_scalar(const ForceArgs<S>& a, S yield, S anchor_limit, bool springs, std::uint32_t begin,
                              std::uint32_t end, std::uint8_t* mask) {
   constexpr std::uint32_t kRow = kBlock / 8;
-  std::memset(mask, 0, kRow * (1 + (springs ? a.slots : 0)));
+  std::memset(mask, 0, kRow * (1 + (springs ? a.columns : 0)));
   const S thr2 = (anchor_limit * anchor_limit) * kYieldShrink<S>;
   bool any = false;
   for (std::uint32_t i = begin; i < end; ++i)
@@ -24,7 +24,7 @@ bool yield_candidates_scalar(const ForceArgs<S>& a, S yield, S anchor_limit, boo
       any = true;
     }
   if (!springs) return any;
-  for (int s = 0; s < a.slots; ++s) {
+  for (int s = 0; s < a.columns; ++s) {
     std::uint8_t* row = mask + kRow * (1 + s);
     const std::size_t o = static_cast<std::size_t>(s) * a.stride;
     for (std::uint32_t i = begin; i < end; ++i) {

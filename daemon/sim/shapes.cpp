@@ -117,14 +117,14 @@ TriangleMesh make_box_grid(std::array<float, 3> size, int cells) {
   std::vector<std::int32_t> index(side * side * side, -1);
   TriangleMesh mesh;
   auto vertex = [&](std::array<int, 3> g) {
-    std::int32_t& slot = index[(static_cast<std::size_t>(g[0]) * side + g[1]) * side + g[2]];
-    if (slot < 0) {
-      slot = static_cast<std::int32_t>(mesh.positions.size());
+    std::int32_t& cell = index[(static_cast<std::size_t>(g[0]) * side + g[1]) * side + g[2]];
+    if (cell < 0) {
+      cell = static_cast<std::int32_t>(mesh.positions.size());
       Vec3f p;
       for (int k = 0; k < 3; ++k) p[k] = size[k] * (static_cast<float>(g[k]) / n - 0.5f);
       mesh.positions.push_back(p);
     }
-    return static_cast<std::uint32_t>(slot);
+    return static_cast<std::uint32_t>(cell);
   };
   for (int axis = 0; axis < 3; ++axis) {
     const int u = (axis + 1) % 3, v = (axis + 2) % 3;  // e_u × e_v = e_axis

@@ -36,7 +36,7 @@ struct Substep {
   bool first() const { return index == 0; }
   bool last() const { return index + 1 == count; }
   std::uint8_t* mask_of(std::uint32_t q) const { return yield_masks + q * clay_mask_bytes(body); }
-  // The block at b0 takes its accelerations from the scratch slot.
+  // The block at b0 takes its accelerations from the scratch.
   void use_scratch(std::uint32_t b0) {
     forces.ax = scratch, forces.ay = scratch + kernel::kBlock, forces.az = scratch + 2 * kernel::kBlock;
     integrate.ax = forces.ax, integrate.ay = forces.ay, integrate.az = forces.az;

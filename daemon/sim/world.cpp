@@ -171,7 +171,7 @@ void World<S>::read_tools(std::span<const Tool> tools) {
       tr.hi[k] = static_cast<S>(std::max(tr.c0[k], tr.c1[k]) + e);
     }
   }
-  // More tools than slots: the extra ones are ignored, and counted.
+  // More tools than tool slots: the extra ones are ignored, and counted.
   if (tools.size() > tool_slots_) stats_.ignored_tools += static_cast<std::uint32_t>(tools.size() - tool_slots_);
 }
 
@@ -252,7 +252,7 @@ Substep<S> World<S>::begin_tick(std::uint32_t bi) {
   fa.inv_mass = static_cast<S>(1.0 / m.mass);
   fa.inv_dt = S(1) / dts;
   for (int k = 0; k < 3; ++k) fa.gravity_force[k] = m.gravity ? static_cast<S>(m.mass * settings_.gravity[k]) : S(0);
-  fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();  // the arrays path; the others set a scratch slot
+  fa.ax = b.ax.data(), fa.ay = b.ay.data(), fa.az = b.az.data();  // the arrays path; the others use the scratch
   const kernel::IntegrateArgs<S> ia{b.x.data(),  b.y.data(),  b.z.data(),  b.wx.data(), b.wy.data(), b.wz.data(),
                                     b.ax.data(), b.ay.data(), b.az.data(), dts,         S(1) / dts};
   return Substep<S>{.body = b,

@@ -63,7 +63,7 @@ class World {
   std::uint32_t add_body(const TriangleMesh& mesh, const Material& material, const BodyOptions& options = {});
 
   // One tick of 1/rate_hz. tools[t] drives tool slot t; missing slots are inactive,
-  // tools beyond the slots are ignored (TickStats::ignored_tools counts them).
+  // tools beyond the tool slots are ignored (TickStats::ignored_tools counts them).
   void step(std::span<const Tool> tools);
 
   // Optional stage timing, for the daemon's stats: with a clock (nanoseconds,

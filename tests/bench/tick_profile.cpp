@@ -129,8 +129,8 @@ int run(int argc, char** argv) {
 
   const scene::Scene sc = scene::load_scene(scene_file);
   const double rate = sc.settings.rate_hz;
-  const int slots = static_cast<int>(std::max<std::size_t>(sc.tools.size(), 1));
-  sim::World<float> world(sc.settings, slots);
+  const int columns = static_cast<int>(std::max<std::size_t>(sc.tools.size(), 1));
+  sim::World<float> world(sc.settings, columns);
   for (const auto& m : sc.meshes) world.add_body(m.loaded.mesh, sc.material_of(m));
   const std::vector<loop::ToolSpec> specs = loop::tool_specs(sc);
   loop::DriverLimits limits;  // sculptd's defaults (tool margin 0.1 m)

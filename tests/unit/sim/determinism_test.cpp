@@ -131,7 +131,7 @@ TEST(Determinism, FusedClayYieldsAndGrabsMatchPortableKernels) {
 
 // A cone with 400 rim vertices: the apex and the base centre have degree 400+,
 // so whole (not only partial) blocks carry ELL overflow entries, which the
-// one-pass block kernel adds after the slots.
+// one-pass block kernel adds after the columns.
 std::uint64_t big_cone_run(Integrator integrator, ForceModel model, bool& full_block_overflow) {
   SimSettings s;
   s.integrator = integrator;

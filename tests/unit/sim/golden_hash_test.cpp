@@ -66,8 +66,8 @@ std::uint64_t run_tools() {
 // records; with `never` (and by default) they step through the ring of packed
 // records on AVX2 and gather from the arrays on the portable kernels: the same
 // bits again. (These three hashes changed when springs reaching farther than
-// kernel::kRingReach blocks moved from the ELL slots to the overflow list,
-// which sums them after the slots: the torus has 164 blocks.)
+// kernel::kRingReach blocks moved from the ELL columns to the overflow list,
+// which sums them after the columns: the torus has 164 blocks.)
 std::uint64_t run_elastic(Integrator integrator, PackedRecords records, ForceModel model = ForceModel::spring) {
   SimSettings s;
   s.integrator = integrator;

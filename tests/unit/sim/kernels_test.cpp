@@ -46,7 +46,7 @@ TEST(Kernels, OutcodesAreOneBitPerFaceOnEveryPath) {
 // edge of yield: every entry the exact test would change must be marked.
 TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
   const std::uint32_t n = 2 * kBlock + 3;
-  const int slots = 3;
+  const int columns = 3;
   const float yield = 0.01f, edge = 0.002f, limit = yield * edge;
   std::mt19937 rng(11);
   // Strains and anchor displacements straddling the yield thresholds closely.
@@ -55,13 +55,13 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
   std::vector<float> x(n), y(n, 0.0f), z(n, 0.0f), rx(n), ry(n, 0.0f), rz(n, 0.0f);
   for (std::uint32_t i = 0; i < n; ++i) x[i] = static_cast<float>(i) * edge * (1.0f + strain(rng));
   for (std::uint32_t i = 1; i < n; ++i) x[i] = std::max(x[i], x[i - 1] + 0.5f * edge);
-  std::vector<std::int16_t> nbr(static_cast<std::size_t>(slots) * n);  // neighbour − vertex
+  std::vector<std::int16_t> nbr(static_cast<std::size_t>(columns) * n);  // neighbour − vertex
   std::vector<float> rest(nbr.size());
   for (std::uint32_t i = 0; i < n; ++i) {
     const std::int32_t l = i > 0 ? static_cast<std::int32_t>(i - 1) : static_cast<std::int32_t>(i);
     const std::int32_t r = i + 1 < n ? static_cast<std::int32_t>(i + 1) : static_cast<std::int32_t>(i);
     const std::int32_t js[3] = {l, r, static_cast<std::int32_t>(i)};
-    for (int s = 0; s < slots; ++s) {
+    for (int s = 0; s < columns; ++s) {
       const std::size_t e = static_cast<std::size_t>(s) * n + i;
       nbr[e] = static_cast<std::int16_t>(js[s] - static_cast<std::int32_t>(i));
       const float len = std::abs(x[js[s]] - x[i]);
@@ -75,13 +75,13 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
   }
   kernel::ForceArgs<float> a{};
   a.x = x.data(), a.y = y.data(), a.z = z.data(), a.rx = rx.data(), a.ry = ry.data(), a.rz = rz.data();
-  a.nbr = nbr.data(), a.rest_length = rest.data(), a.stride = n, a.slots = slots;
+  a.nbr = nbr.data(), a.rest_length = rest.data(), a.stride = n, a.columns = columns;
   for (bool portable : {false, true}) {
     const kernel::testing::ScopedPortable portable_switch(portable);
     int exact_yields = 0, marked_total = 0;
     for (std::uint32_t b0 = 0; b0 < n; b0 += kBlock) {
       const std::uint32_t b1 = std::min(n, b0 + kBlock);
-      std::vector<std::uint8_t> mask((1 + slots) * (kBlock / 8), 0xff);
+      std::vector<std::uint8_t> mask((1 + columns) * (kBlock / 8), 0xff);
       const bool any = kernel::yield_candidates(a, yield, limit, true, b0, b1, mask.data());
       auto bit = [&](int row, std::uint32_t i) { return (mask[row * (kBlock / 8) + (i - b0) / 8] >> ((i - b0) % 8)) & 1; };
       bool seen = false;
@@ -95,7 +95,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
         }
         seen = seen || bit(0, i);
         marked_total += bit(0, i);
-        for (int s = 0; s < slots; ++s) {
+        for (int s = 0; s < columns; ++s) {
           const std::size_t e = static_cast<std::size_t>(s) * n + i;
           const std::int32_t j = static_cast<std::int32_t>(i) + nbr[e];
           const float dx = x[j] - x[i], dy = y[j] - y[i], dz = z[j] - z[i];
@@ -104,7 +104,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
                               (len > rest[e] * (1.0f + yield) || len < rest[e] * (1.0f - yield));
           exact_yields += yields;
           if (yields) {
-            EXPECT_TRUE(bit(1 + s, i)) << "spring " << i << " slot " << s;
+            EXPECT_TRUE(bit(1 + s, i)) << "spring " << i << " column " << s;
           }
           if (j == static_cast<std::int32_t>(i)) {
             EXPECT_FALSE(bit(1 + s, i)) << "padding marked";
@@ -117,7 +117,7 @@ TEST(Kernels, YieldCandidatesMarkEverythingTheExactTestWouldYield) {
     }
     // The test means something: many yield, and the filter still skips most of the rest.
     EXPECT_GT(exact_yields, 100);
-    EXPECT_LT(marked_total, 4 * n * (1 + slots) / 5);
+    EXPECT_LT(marked_total, 4 * n * (1 + columns) / 5);
   }
 }
 

@@ -386,7 +386,7 @@ TEST(Layout, BigBodiesKeepTheirArraysInOneArena) {
 TEST(Layout, FarSpringsGoToTheOverflow) {
   const Body<float> b = make_body<float>(test::far_spring_mesh(), Material{}, BodyOptions{}, 1);
   std::vector<std::pair<std::uint32_t, std::uint32_t>> seen;
-  for (int s = 0; s < b.slots; ++s)
+  for (int s = 0; s < b.columns; ++s)
     for (std::uint32_t i = 0; i < b.n; ++i) {
       const std::int32_t j = static_cast<std::int32_t>(i) + b.nbr[static_cast<std::size_t>(s) * b.n + i];
       if (j == static_cast<std::int32_t>(i)) continue;
