@@ -248,7 +248,7 @@ int throughput(const ThroughputOptions& o) {
                         {"repeats", o.repeats},
                         {"substeps", fast["substeps"]}};
   if (o.impl != "baseline") {
-    for (const char* k : {"ns_per_vertex_step", "ms_per_step", "memory_bytes", "bytes_per_vertex", "clone", "kernel", "blowups",
+    for (const char* k : {"ns_per_vertex_step", "ms_per_step", "memory_bytes", "bytes_per_vertex", "clone", "path", "kernel", "blowups",
                           "huge_page_bytes", "sculpting_with_sleep", "idle"})
       out[k] = fast[k];
   }
