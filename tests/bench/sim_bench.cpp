@@ -149,6 +149,35 @@ void BM_StepClaySculpting(benchmark::State& state) {
 }
 BENCHMARK(BM_StepClaySculpting)->Args({7, 0})->Args({6, 0})->Args({6, 2})->Args({6, 1})->Unit(benchmark::kMicrosecond);
 
+// Clay, every vertex awake, pressed then grabbed and pulled: the records path
+// (the double buffer of packed records, range(1) = 1) against the arrays path
+// (0) on the same mesh. range(0): icosphere subdivisions (6: 41k, 7: 164k).
+void BM_StepClayPath(benchmark::State& state) {
+  World<float> w(SimSettings{}, 1);
+  Material clay;
+  clay.plastic = true;
+  BodyOptions options;
+  options.packed = state.range(1) ? PackedRecords::always : PackedRecords::never;
+  const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
+  w.add_body(mesh, clay, options);
+  long tick = 0;
+  for (auto _ : state) {
+    w.wake_all(0);
+    const long phase = tick++ % 400;  // 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out
+    Tool t;
+    t.radius = 0.02;
+    const double depth = phase < 200 ? 0.01 * phase / 200.0 : 0.01 - 0.02 * (phase - 200) / 200.0;
+    t.position = {0.01 * std::sin(tick * 0.01), 0.115 - depth, 0.0};
+    t.grab = phase >= 200;
+    w.step({&t, 1});
+  }
+  state.counters["ns_per_vertex_step"] = benchmark::Counter(
+      static_cast<double>(state.iterations()) * mesh.positions.size() * w.substeps(0),
+      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.SetLabel(name(w.step_path(0)));
+}
+BENCHMARK(BM_StepClayPath)->Args({6, 1})->Args({6, 0})->Args({7, 1})->Args({7, 0})->Unit(benchmark::kMillisecond);
+
 // Nothing touches the scene: everything sleeps.
 void BM_StepIdle(benchmark::State& state) {
   World<float> w(SimSettings{}, 2);
