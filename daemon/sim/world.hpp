@@ -97,6 +97,14 @@ class World {
   // Total energy of a body at the end of the last tick it was active, J.
   double energy(std::size_t body) const { return bodies_[body].energy; }
 
+  // Everything later ticks read of the state earlier ticks wrote, as bytes
+  // (allocates); a world built from the same scene and settings continues
+  // from them bit for bit. restore_state throws std::invalid_argument naming
+  // what does not match (another scene, precision or build), and then
+  // changes nothing. Between ticks only.
+  std::vector<std::byte> state() const;
+  void restore_state(std::span<const std::byte> bytes);
+
   // FNV-1a over the position bits of every body in original order.
   std::uint64_t hash() const;
   std::size_t bytes() const;
@@ -111,6 +119,7 @@ class World {
   void judge(std::uint32_t bi, bool finite);
   void settle(Body<S>& b, double energy);
   void log_changes(std::uint32_t bi);
+  void read_state(class StateReader& r);
 
   SimSettings settings_;
   std::uint32_t tool_slots_;

@@ -1,0 +1,95 @@
+// A world's state as bytes (World::state / World::restore_state): fixed-size
+// values and arrays appended in order, and read back with every size
+// checked against the world being restored, so a state from another scene,
+// build or precision is refused by name rather than misread.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "sim/aligned_buffer.hpp"
+
+namespace sculpt::sim {
+
+class StateWriter {
+ public:
+  explicit StateWriter(std::vector<std::byte>& out) : out_(out) {}
+  template <class T>
+  void value(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes(&v, sizeof v);
+  }
+  template <class T>
+  void array(std::span<const T> a) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    value(static_cast<std::uint64_t>(a.size()));
+    bytes(a.data(), a.size_bytes());
+  }
+  template <class T>
+  void array(const AlignedBuffer<T>& a) { array(a.span()); }
+  template <class T>
+  void array(const std::vector<T>& a) { array(std::span<const T>(a)); }
+
+ private:
+  void bytes(const void* p, std::size_t n) {
+    if (n == 0) return;
+    const std::size_t at = out_.size();
+    out_.resize(at + n);
+    std::memcpy(out_.data() + at, p, n);
+  }
+  std::vector<std::byte>& out_;
+};
+
+class StateReader {
+ public:
+  // dry: check every size and the length, write nothing (a first pass, so a
+  // bad state is refused before any of it is applied).
+  StateReader(std::span<const std::byte> in, bool dry) : in_(in), dry_(dry) {}
+  // A value the caller checks (read in either pass).
+  template <class T>
+  void value(T& v, const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes(&v, sizeof v, what, /*write=*/true);
+  }
+  // A field of the world (left alone in a dry pass).
+  template <class T>
+  void field(T& v, const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes(&v, sizeof v, what, !dry_);
+  }
+  // Into an array that already has the size the state must carry (a world's
+  // array: left alone in a dry pass unless `always`).
+  template <class T>
+  void array(std::span<T> a, const char* what, bool always = false) {
+    std::uint64_t n = 0;
+    value(n, what);
+    if (n != a.size())
+      throw std::invalid_argument(std::string("state: ") + what + " has " + std::to_string(n) + " entries, the scene " +
+                                  std::to_string(a.size()));
+    bytes(a.data(), a.size_bytes(), what, always || !dry_);
+  }
+  template <class T>
+  void array(AlignedBuffer<T>& a, const char* what) { array(a.span(), what); }
+  template <class T>
+  void array(std::vector<T>& a, const char* what) { array(std::span<T>(a), what); }
+  bool done() const { return at_ == in_.size(); }
+  bool dry() const { return dry_; }
+
+ private:
+  void bytes(void* p, std::size_t n, const char* what, bool write) {
+    if (in_.size() - at_ < n) throw std::invalid_argument(std::string("state: truncated in ") + what);
+    if (write) std::memcpy(p, in_.data() + at_, n);
+    at_ += n;
+  }
+  std::span<const std::byte> in_;
+  std::size_t at_ = 0;
+  bool dry_;
+};
+
+}  // namespace sculpt::sim
