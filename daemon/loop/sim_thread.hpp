@@ -74,6 +74,8 @@ class SimThread {
   RealtimeResult start();
   // Asks the thread to stop after its current tick and joins it. Idempotent.
   void stop();
+  // Asks the same without waiting: finished() tells when it has.
+  void request_stop() { stop_.store(true, std::memory_order_release); }
   // Control from one other thread (the io thread), applied at the next tick
   // boundary through a lock-free ring: a paused loop keeps its period (and
   // heartbeats) but runs no stage and no step. False when the ring is full.

@@ -81,8 +81,13 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     // Before the io loop runs (and before READY), so here, once, the scene
     // loads on the io thread.
     board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
-    loader_ = std::make_unique<SceneLoader>(*tasks_, stopping_, *board_,
-                                            [this](Simulation next, const char* what) { swap_in(std::move(next), what); });
+    loader_ = std::make_unique<SceneLoader>(
+        *tasks_, stopping_, *board_,
+        [this] {
+          sims_.request_stop();
+          return until_sim_stopped();
+        },
+        [this](Simulation next, const char* what) { swap_in(std::move(next), what); });
     reload_ = std::make_unique<ConfigReload>(opts_.config_path, opts_.config_optional, opts_.overrides, *tasks_,
                                              stopping_, [this](DaemonConfig next) { apply_config(std::move(next)); });
     scene::Scene first = scene::load_scene(cfg_.scene);
@@ -165,6 +170,12 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - began).count());
   }
 
+  // Polled: the sim thread leaves its loop within a tick once it runs.
+  kj::Promise<void> until_sim_stopped() {
+    if (sims_.stopped()) return kj::READY_NOW;
+    return io_.provider->getTimer().afterDelay(1 * kj::MILLISECONDS).then([this] { return until_sim_stopped(); });
+  }
+
   kj::Promise<void> watch_signal(int sig) {
     return io_.unixEventPort.onSignal(sig).then([this, sig](siginfo_t) -> kj::Promise<void> {
       if (sig == SIGHUP) {
@@ -194,7 +205,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     const loop::SimThread* sim = sims_.thread();
     if (!sim) return;
     announce_ready_once();
-    if (sim->finished()) {
+    if (sim->finished() && !sims_.swapping()) {
       log::info("duration reached: {} ticks", sim->ticks());
       request_stop(0);
       return;

@@ -39,21 +39,32 @@ kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, S
     } catch (const std::exception& e) {
       job->error = e.what();
     }
-  }).then([this, job, what]() -> std::string {
+  }).then([this, job, what]() -> kj::Promise<std::string> {
     if (!job->error.empty() || stopping_) {
       if (!job->error.empty()) log::warning("{}: {}; keeping the current sculpt", what, job->error);
       return job->error.empty() ? std::string("the daemon is stopping") : job->error;
     }
     log_scene_warnings(job->built->scene);
-    swap_in_(std::move(*job->built), what);
-    return std::string();
-  }, [what](kj::Exception&& e) -> std::string {
+    return stop_sim_().then([this, job, what]() -> std::string {
+      if (stopping_) return "the daemon is stopping";
+      swap_in_(std::move(*job->built), what);
+      return std::string();
+    });
+  }, [what](kj::Exception&& e) -> kj::Promise<std::string> {
     log::err("{}: {}", what, e.getDescription().cStr());
-    return e.getDescription().cStr();
+    return std::string(e.getDescription().cStr());
   });
   auto forked = done.fork();
   tasks_.add(forked.addBranch().ignoreResult());
   return forked.addBranch();
+}
+
+void SceneLoader::free_unfreed() {
+  if (disposer_.busy() || unfreed_.empty()) return;
+  std::vector<std::shared_ptr<void>> batch;
+  batch.swap(unfreed_);
+  // The last reference goes on the disposer thread; then whatever queued meanwhile.
+  tasks_.add(disposer_.run([batch = std::move(batch)]() mutable { batch.clear(); }).then([this] { free_unfreed(); }));
 }
 
 }  // namespace sculpt::daemon

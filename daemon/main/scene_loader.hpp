@@ -29,31 +29,41 @@ class SceneLoader {
  public:
   // Swaps a built simulation in, on the io thread.
   using SwapIn = std::function<void(Simulation next, const char* what)>;
+  // Resolves once the running sim thread has stopped, without blocking the io loop.
+  using StopSim = std::function<kj::Promise<void>()>;
 
   // `tasks` keeps the workers' promises; `stopping` turns a finished build
   // away. Both outlive the loader.
-  SceneLoader(kj::TaskSet& tasks, const bool& stopping, haptics::FeedbackBoard& board, SwapIn swap_in)
-      : tasks_(tasks), stopping_(stopping), board_(board), swap_in_(std::move(swap_in)) {}
+  SceneLoader(kj::TaskSet& tasks, const bool& stopping, haptics::FeedbackBoard& board, StopSim stop_sim,
+              SwapIn swap_in)
+      : tasks_(tasks),
+        stopping_(stopping),
+        board_(board),
+        stop_sim_(std::move(stop_sim)),
+        swap_in_(std::move(swap_in)) {}
 
   // Builds read()'s scene with `settings` on the worker, then swaps it in.
   // Resolves to "" or the error (the running sculpt is then untouched). The
   // build goes on when the caller goes away (a client disconnecting).
   kj::Promise<std::string> load(std::function<scene::Scene()> read, SimulationSettings settings, const char* what);
 
-  // Frees `parts` on the disposer thread, or right here when that is still
-  // busy with the last ones.
+  // Frees `parts` on the disposer thread: at once, or after what it is
+  // freeing now (back-to-back loads queue up; the io loop frees nothing).
   template <class Parts>
   void dispose(Parts parts) {
-    auto old = std::make_shared<Parts>(std::move(parts));
-    if (disposer_.busy()) return;  // freed right here, as `old` goes
-    tasks_.add(disposer_.run([old = std::move(old)]() mutable { old.reset(); }));
+    unfreed_.push_back(std::make_shared<Parts>(std::move(parts)));
+    free_unfreed();
   }
 
  private:
   kj::TaskSet& tasks_;
   const bool& stopping_;
   haptics::FeedbackBoard& board_;
+  void free_unfreed();
+
+  StopSim stop_sim_;
   SwapIn swap_in_;
+  std::vector<std::shared_ptr<void>> unfreed_;  // replaced, waiting for the disposer
   Worker worker_;    // builds
   Worker disposer_;  // frees what a swap replaced
 };

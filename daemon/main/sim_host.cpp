@@ -67,8 +67,15 @@ void SimHost::restart_if_missing() {
   }
 }
 
+void SimHost::request_stop() {
+  if (sim_) sim_->request_stop();
+  stop_requested_ = sim_ != nullptr;
+}
+
 SimHost::Outgoing SimHost::swap(Simulation next) {
-  const bool was_paused = paused();
+  const bool was_paused = paused_after_stop_.value_or(paused());
+  stop_requested_ = false;
+  paused_after_stop_.reset();
   if (sim_) sim_->stop();
   const std::uint64_t tick = current_tick();
   sim_.reset();
@@ -92,6 +99,11 @@ double SimHost::simulated_s() const {
 
 std::string SimHost::set_paused(bool paused) {
   if (!sim_) return "the sim thread is not running (it could not be started; see the log)";
+  if (stop_requested_) {  // a scene is being swapped in: its thread starts this way
+    paused_after_stop_ = paused;
+    log::info("{}", paused ? "paused" : "resumed");
+    return {};
+  }
   if (!sim_->request_pause(paused)) return "the sim thread's command ring is full; try again";
   log::info("{}", paused ? "paused" : "resumed");
   return {};

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "loop/sim_thread.hpp"
@@ -47,6 +48,14 @@ class SimHost {
   // failure once per swap.
   void restart_if_missing();
   void stop();
+  // A swap's first half, so the io loop never waits on the sim thread: ask
+  // it to stop, and swap once stopped() (a thread the host has to wake may
+  // sit on a busy machine's run queue for tens of milliseconds). A pause or
+  // resume asked meanwhile applies to the thread the swap starts.
+  void request_stop();
+  bool stopped() const { return !sim_ || sim_->finished(); }
+  // Between request_stop() and the swap: a finished thread is not the end of the run.
+  bool swapping() const { return stop_requested_; }
 
   const scene::Scene& scene() const { return scene_; }
   double rate() const { return rate_; }
@@ -85,6 +94,8 @@ class SimHost {
   loop::LoopStats idle_stats_;
   std::uint64_t pending_start_tick_ = 0;
   bool pending_start_paused_ = false;
+  bool stop_requested_ = false;               // request_stop() until the swap
+  std::optional<bool> paused_after_stop_;     // set_paused() while stopping
   bool start_failure_logged_ = false;
   // The scenes before this one ran this long; this one from this tick on.
   double simulated_before_s_ = 0;
