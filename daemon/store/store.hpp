@@ -1,0 +1,160 @@
+// sculpt::store — one sculpt's state on disk, recoverable after any crash:
+// periodic snapshots (the whole simulation state at a tick, opaque bytes)
+// plus a journal of every input since (opaque records with their tick), in
+// one SQLite database in WAL mode (docs/store.md).
+//
+// Contracts
+// - Not real-time. Every call may block on the disk (an fsync per commit);
+//   the simulation thread never calls it. One thread at a time uses a Store.
+// - One Store per directory: open() takes an exclusive flock on "<dir>/lock"
+//   (released by the kernel however the process ends) and refuses a second
+//   opener, naming the lock file and the holder's PID.
+// - Durable: a write that returns ok is committed and fsynced (WAL,
+//   synchronous=FULL), so a crash, SIGKILL or power cut afterwards loses
+//   nothing of it. A crash during a write loses that write only, never an
+//   earlier one, and never leaves a half-written one behind.
+// - Ticks: a snapshot at tick T holds the state after every input of a tick
+//   <= T. recover() returns the newest snapshot that decodes and passes its
+//   checksum, then every journal record of a tick > T, ordered by tick and,
+//   within a tick, by append order. Ticks are expected never to go back.
+// - Bounded: the database never exceeds Limits::max_bytes (SQLite's
+//   max_page_count; a write that would is refused as "disk full"). A
+//   snapshot leaves the newest keep_snapshots snapshots and the journal they
+//   need, and checkpoints the WAL back to empty.
+// - Faults never stop the caller. Writes do not throw for disk faults (full,
+//   read-only, I/O errors): they return a failed Status naming the database
+//   and SQLite's error, and the store is degraded. While degraded, writes
+//   within retry_interval of the last failure return at once (deferred,
+//   without touching the disk); the next one after it retries. Journal
+//   records not yet written are kept in memory, up to max_pending_bytes, and
+//   written first by the next write that succeeds; records beyond that are
+//   dropped and their tick range is recorded, so recover() reports the gap.
+// - recover() never throws for a damaged store: it returns what is good and
+//   says what was lost and why.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "store/codec.hpp"
+#include "store/dir_lock.hpp"
+#include "store/sqlite.hpp"
+
+namespace sculpt::store {
+
+// open() failed: the message names the path and what is wrong.
+class StoreError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct Limits {
+  std::uint64_t max_bytes = std::uint64_t{1} << 30;  // the database file, at most
+  unsigned keep_snapshots = 3;                       // at least 1
+  std::chrono::milliseconds retry_interval{5000};    // while degraded
+  std::uint64_t max_pending_bytes = std::uint64_t{64} << 20;  // unwritten journal held in memory
+  Codec codec = Codec::shuffle4_zstd;
+  int zstd_level = 1;
+};
+
+struct RecordView {
+  std::uint64_t tick = 0;
+  std::span<const std::byte> bytes;
+};
+
+struct Record {
+  std::uint64_t tick = 0;
+  std::vector<std::byte> bytes;
+  bool operator==(const Record&) const = default;
+};
+
+struct Snapshot {
+  std::uint64_t tick = 0;
+  std::vector<std::byte> state;
+  std::string meta;
+};
+
+struct Status {
+  bool ok = true;
+  bool deferred = false;  // not tried: degraded, the retry is not due yet
+  std::string error;      // empty when ok
+  explicit operator bool() const { return ok; }
+};
+
+struct Recovery {
+  std::optional<Snapshot> snapshot;  // none: the store is new, or no snapshot decodes
+  std::vector<Record> journal;       // after the snapshot's tick (all, when there was never one)
+  std::vector<std::string> lost;     // what could not be recovered and why; empty: exact
+  bool exact() const { return lost.empty(); }
+};
+
+struct Health {
+  bool degraded = false;
+  std::string last_error;            // of the failure that degraded it
+  std::uint64_t failures = 0;        // write attempts that failed, ever
+  std::size_t pending_records = 0;   // journal records waiting in memory
+  std::uint64_t dropped_records = 0; // not written and not kept, ever
+};
+
+struct Usage {
+  std::int64_t snapshots = 0;
+  std::int64_t journal_records = 0;
+  std::uint64_t database_bytes = 0;  // the file's size
+  std::uint64_t wal_bytes = 0;       // the -wal file's size
+};
+
+class Store {
+ public:
+  // Creates `dir` (0750) and the database if missing, locks, checks the
+  // schema. Throws StoreError: the directory cannot be made, the store is
+  // locked, the file is not a store or has a newer schema, SQLite cannot
+  // open it.
+  static Store open(const std::filesystem::path& dir, const Limits& limits = {});
+
+  Status write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta = {});
+  Status append(std::span<const RecordView> records);  // one transaction
+  Recovery recover();
+
+  Health health() const;
+  Usage usage();
+  const std::filesystem::path& database() const { return db_.file(); }
+
+  // Tests only: runs SQL on the store's own connection, to simulate faults
+  // (PRAGMA max_page_count, PRAGMA query_only). Throws sqlite::Error.
+  void execute_for_testing(std::string_view sql) { db_.exec(sql, "test hook"); }
+
+ private:
+  Store(DirLock lock, sqlite::Connection db, const Limits& limits);
+  template <class Write>
+  Status attempt(std::string_view doing, Write&& write);
+  void keep_pending(std::span<const RecordView> records);
+  void write_journal(std::span<const RecordView> records);
+  void written();
+  void insert_snapshot(std::uint64_t tick, std::uint64_t raw_size, std::span<const std::byte> blob,
+                       std::string_view meta);
+  void checkpoint();
+
+  struct Gap {
+    std::uint64_t first_tick = 0, last_tick = 0, records = 0;
+  };
+
+  DirLock lock_;
+  sqlite::Connection db_;
+  Limits limits_;
+  std::deque<Record> pending_;
+  std::uint64_t pending_bytes_ = 0;
+  std::optional<Gap> gap_;  // dropped records not yet recorded on disk
+  Health health_;
+  std::chrono::steady_clock::time_point retry_at_{};
+};
+
+}  // namespace sculpt::store
