@@ -24,6 +24,17 @@ Tool pressing(long tick) {
   return t;
 }
 
+// Over and over: ticks 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out.
+Tool press_then_pull(long tick) {
+  const long phase = (tick - 1) % 400;
+  Tool t;
+  t.radius = 0.02;
+  const double depth = phase < 200 ? 0.01 * phase / 200.0 : 0.01 - 0.02 * (phase - 200) / 200.0;
+  t.position = {0.01 * std::sin(tick * 0.01), 0.115 - depth, 0.0};
+  t.grab = phase >= 200;
+  return t;
+}
+
 // Every vertex awake (sleeping off), a tool pressing: kernel throughput.
 template <class S>
 void BM_StepAllAwake(benchmark::State& state) {
@@ -137,12 +148,7 @@ void BM_StepClaySculpting(benchmark::State& state) {
   const kernel::testing::ScopedBlockPieces pieces_switch(state.range(1) == 2);
   long tick = 0;
   for (auto _ : state) {
-    const long phase = tick++ % 400;  // 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out
-    Tool t;
-    t.radius = 0.02;
-    const double depth = phase < 200 ? 0.01 * phase / 200.0 : 0.01 - 0.02 * (phase - 200) / 200.0;
-    t.position = {0.01 * std::sin(tick * 0.01), 0.115 - depth, 0.0};
-    t.grab = phase >= 200;
+    const Tool t = press_then_pull(++tick);
     w.step({&t, 1});
   }
   state.SetLabel(state.range(1) == 1 ? "portable" : state.range(1) == 2 ? "pieces" : "auto");
@@ -163,12 +169,7 @@ void BM_StepClayPath(benchmark::State& state) {
   long tick = 0;
   for (auto _ : state) {
     w.wake_all(0);
-    const long phase = tick++ % 400;  // 0-199 press 10 mm in, 200-399 hold on and pull 20 mm out
-    Tool t;
-    t.radius = 0.02;
-    const double depth = phase < 200 ? 0.01 * phase / 200.0 : 0.01 - 0.02 * (phase - 200) / 200.0;
-    t.position = {0.01 * std::sin(tick * 0.01), 0.115 - depth, 0.0};
-    t.grab = phase >= 200;
+    const Tool t = press_then_pull(++tick);
     w.step({&t, 1});
   }
   state.counters["ns_per_vertex_step"] = benchmark::Counter(
