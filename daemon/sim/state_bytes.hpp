@@ -84,7 +84,7 @@ class StateReader {
  private:
   void bytes(void* p, std::size_t n, const char* what, bool write) {
     if (in_.size() - at_ < n) throw std::invalid_argument(std::string("state: truncated in ") + what);
-    if (write) std::memcpy(p, in_.data() + at_, n);
+    if (write && n > 0) std::memcpy(p, in_.data() + at_, n);  // an empty array may have no storage
     at_ += n;
   }
   std::span<const std::byte> in_;
