@@ -100,8 +100,8 @@ class World {
   // Everything later ticks read of the state earlier ticks wrote, as bytes
   // (allocates); a world built from the same scene and settings continues
   // from them bit for bit. restore_state throws std::invalid_argument naming
-  // what does not match (another scene, precision or build), and then
-  // changes nothing. Between ticks only.
+  // what does not match (another scene, precision or build), leaving the
+  // world as it was. Between ticks only.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
 
