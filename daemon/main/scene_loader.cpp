@@ -26,7 +26,9 @@ std::vector<std::string> mesh_names(const scene::Scene& s) {
 
 kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, SimulationSettings settings,
                                            const char* what) {
-  if (worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");
+  // Busy from the request until the swap: the build, and the wait for the sim thread to stop.
+  if (loading_ || worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");
+  loading_ = true;
   struct Job {
     std::optional<Simulation> built;
     std::string error;
@@ -53,6 +55,13 @@ kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, S
   }, [what](kj::Exception&& e) -> kj::Promise<std::string> {
     log::err("{}: {}", what, e.getDescription().cStr());
     return std::string(e.getDescription().cStr());
+  }).then([this](std::string error) {
+    loading_ = false;
+    return error;
+  }, [this](kj::Exception&& e) -> std::string {
+    loading_ = false;
+    log::err("scene load: {}", e.getDescription().cStr());
+    return e.getDescription().cStr();
   });
   auto forked = done.fork();
   tasks_.add(forked.addBranch().ignoreResult());

@@ -62,6 +62,7 @@ class SceneLoader {
   void free_unfreed();
 
   StopSim stop_sim_;
+  bool loading_ = false;  // a load runs, from its request to its swap
   SwapIn swap_in_;
   std::vector<std::shared_ptr<void>> unfreed_;  // replaced, waiting for the disposer
   Worker worker_;    // builds

@@ -73,7 +73,10 @@ class SimHost {
   double simulated_s() const;
   // The running thread's stats (zeros while none runs).
   const loop::LoopStats& stats() const { return sim_ ? sim_->stats() : idle_stats_; }
-  bool paused() const { return sim_ ? sim_->paused() : pending_start_paused_; }
+  bool paused() const {
+    if (stop_requested_ && paused_after_stop_) return *paused_after_stop_;
+    return sim_ ? sim_->paused() : pending_start_paused_;
+  }
   // "" or why the request could not be made.
   std::string set_paused(bool paused);
 

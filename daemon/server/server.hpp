@@ -114,7 +114,7 @@ class Server {
   std::size_t viewers() const { return streams_.size(); }
   const ServerCounters& counters() const { return counters_; }
 
-  // For the Session implementation (server.cpp).
+  // For the Session implementation (interfaces.cpp).
   struct Stream;
   struct Client;
   DaemonControl& control() { return control_; }

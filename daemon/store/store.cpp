@@ -72,7 +72,8 @@ void configure(sqlite::Connection& db, const Limits& limits) {
   // loses at most the commit in progress, for one fsync per commit (<= 10/s).
   db.exec("PRAGMA synchronous = FULL", "set synchronous=FULL");
   const std::int64_t page = db.query_int("PRAGMA page_size", "read the page size");
-  const std::int64_t max_pages = std::max<std::int64_t>(16, static_cast<std::int64_t>(limits.max_bytes) / page);
+  const std::uint64_t max_bytes = std::min<std::uint64_t>(limits.max_bytes, INT64_MAX);  // "unlimited" stays so
+  const std::int64_t max_pages = std::max<std::int64_t>(16, static_cast<std::int64_t>(max_bytes) / page);
   db.query_int(fmt::format("PRAGMA max_page_count = {}", max_pages), "set the size limit");
   // Between snapshots the journal's commits may grow the WAL past the
   // automatic checkpoint; this truncates it back after each one.
@@ -95,8 +96,8 @@ Store Store::open(const std::filesystem::path& dir, const Limits& limits) {
   DirLock lock(dir);
   try {
     sqlite::Connection db(dir / "store.db", true);
+    check_or_create_schema(db);  // first: a file that is not a store is left as it was
     configure(db, limits);
-    check_or_create_schema(db);
     return Store(std::move(lock), std::move(db), limits);
   } catch (const sqlite::Error& e) {
     throw StoreError(e.what());
@@ -106,8 +107,7 @@ Store Store::open(const std::filesystem::path& dir, const Limits& limits) {
 // Runs `write` unless a recent failure says to wait; turns a disk fault into
 // a failed Status and the degraded state, and a success into healthy again.
 template <class Write>
-Status Store::attempt(std::string_view doing, Write&& write) {
-  const auto now = std::chrono::steady_clock::now();
+Status Store::attempt(std::string_view doing, Write&& write, std::chrono::steady_clock::time_point now) {
   if (health_.degraded && now < retry_at_) {
     const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(retry_at_ - now);
     return {false, true,
@@ -211,7 +211,8 @@ void Store::checkpoint() {
 
 Status Store::write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta) {
   const auto now = std::chrono::steady_clock::now();
-  if (health_.degraded && now < retry_at_) return attempt("snapshot", [] {});  // deferred, nothing encoded
+  // Deferred without encoding anything; the same `now` decides, so an empty write never counts as done.
+  if (health_.degraded && now < retry_at_) return attempt("snapshot", [] {}, now);
   Status s = attempt("snapshot", [&] {
     const std::vector<std::byte> blob = encode(state, limits_.codec, limits_.zstd_level);
     sqlite::Transaction tx(db_);

@@ -135,7 +135,8 @@ class Store {
  private:
   Store(DirLock lock, sqlite::Connection db, const Limits& limits);
   template <class Write>
-  Status attempt(std::string_view doing, Write&& write);
+  Status attempt(std::string_view doing, Write&& write,
+                 std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());
   void keep_pending(std::span<const RecordView> records);
   void write_journal(std::span<const RecordView> records);
   void written();
