@@ -44,9 +44,10 @@ void ReplayFeed::read() {
   done_.store(true, std::memory_order_release);
 }
 
-std::size_t ReplayFeed::pump(concurrency::SpscRing<InputMessage>& ring) {
+std::size_t ReplayFeed::pump(concurrency::SpscRing<InputMessage>& ring, std::size_t keep_free) {
   std::size_t n = 0;
-  for (;;) {
+  // size() only shrinks while this producer waits: the room it sees is there.
+  while (ring.size() + keep_free < ring.capacity()) {
     if (!held_) held_ = read_.try_pop();
     if (!held_ || !ring.try_push(*held_)) break;
     held_.reset();

@@ -42,9 +42,11 @@ class ReplayFeed {
 
   const SessionHeader& header() const { return header_; }
 
-  // Moves read messages into `ring` until it is full or nothing is read
-  // yet. Returns how many. One consumer thread only.
-  std::size_t pump(concurrency::SpscRing<InputMessage>& ring);
+  // Moves read messages into `ring` until only `keep_free` slots are left
+  // or nothing is read yet. Returns how many. One consumer thread only.
+  // (The daemon keeps a slot per device free: a scene swap re-sends every
+  // device's attach ahead of what was queued, into a ring of the same size.)
+  std::size_t pump(concurrency::SpscRing<InputMessage>& ring, std::size_t keep_free = 0);
   // The reader reached the end of the session (or an error) and every
   // message it read has been pumped.
   bool finished() const;

@@ -48,7 +48,7 @@ std::optional<kj::Promise<void>> InputSource::run() {
 
 void InputSource::pump(concurrency::SpscRing<input::InputMessage>& ring) {
   if (!replay_ || replay_failed_) return;
-  replay_->pump(ring);
+  replay_->pump(ring, input::kMaxDevices);  // room for a swap's re-attaches
   if (const auto error = replay_->error()) {
     replay_failed_ = true;
     log::err("replay ended early: {}; the sculpt goes on without its remaining frames", *error);

@@ -10,7 +10,8 @@ static_assert(scene::kMaxTools == input::kMaxTools, "the scene's tool limit is t
 namespace {
 
 constexpr std::size_t kRingCapacity = 4096;  // io → sim messages in flight
-// A replay is queued as far ahead as this ring holds (~1 KiB a message; a
+// A replay is queued as far ahead as this ring holds, less a slot per device
+// for a swap's re-attaches (~1 KiB a message; a
 // minute and more of a typical session), so an io thread starved for
 // seconds on a loaded machine still delivers every frame before its tick:
 // a late one would make the run differ from the recording.

@@ -81,6 +81,16 @@ TEST(ReplayFeed, TheFirstMessagesAreReadBeforeItReturns) {
   EXPECT_GE(feed.pump(ring), 256u);
 }
 
+TEST(ReplayFeed, PumpLeavesTheSlotsItIsAskedToKeepFree) {
+  const auto file = long_session("feed_keep_free.jsonl", 1000);
+  ReplayFeed feed(after_attaches(file), 256);
+  concurrency::SpscRing<InputMessage> ring(64);
+  EXPECT_EQ(feed.pump(ring, 8), 56u);
+  EXPECT_EQ(ring.size(), 56u);
+  EXPECT_EQ(feed.pump(ring, 8), 0u) << "no room beyond what is kept free";
+  for (int i = 0; i < 8; ++i) EXPECT_TRUE(ring.try_push(InputMessage::detach(0))) << "the kept slots are there";
+}
+
 TEST(ReplayFeed, AShortSessionIsFinishedWithoutAThread) {
   const auto file = long_session("feed_short.jsonl", 10);
   ReplayFeed feed(after_attaches(file), 64);
