@@ -128,6 +128,7 @@ void SimThread::run() {
     deadline = next;
     if (options_.max_ticks != 0 && stats_.ticks.load(std::memory_order_relaxed) >= options_.max_ticks) break;
   }
+  take_commands();  // a pause asked just before the stop is the state a swap carries over
   finished_.store(true, std::memory_order_release);
 }
 

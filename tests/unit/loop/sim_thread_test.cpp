@@ -90,6 +90,20 @@ TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
   EXPECT_GT(thread.stats().stage[static_cast<int>(Stage::integration)].max_ns(), 0u);
 }
 
+// A pause asked right before a stop is not lost: the stopped thread says
+// paused, and a scene swap starts the next thread paused.
+TEST(SimThread, APauseRightBeforeAStopIsKept) {
+  auto world = small_world();
+  PressStages stages;
+  SimThread thread(world, stages, 1, SimThreadOptions{});
+  thread.start();
+  ASSERT_TRUE(wait_until([&] { return thread.ticks() >= 5; }));
+  ASSERT_TRUE(thread.request_pause(true));
+  thread.request_stop();
+  thread.stop();
+  EXPECT_TRUE(thread.paused());
+}
+
 TEST(SimThread, StopIsPromptAndIdempotent) {
   auto world = small_world();
   PressStages stages;
