@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 4;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault
+const protocolMinor :UInt16 = 5;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault; 5: Session.undo, redo, history, exportSculpt
 
 struct Vec3 {
   x @0 :Float32;
@@ -219,6 +219,39 @@ struct Result {
   error @1 :Text;                  # what went wrong, naming the file/field, when not ok
 }
 
+# (minor 5) One stroke: one tool's contact with a mesh from onset to release
+# (a grab from press to release).
+struct HistoryEntry {
+  number @0 :UInt32;               # counting from 1 since the daemon's store was made
+  mesh @1 :UInt32;                 # the Mesh.id it changed
+  meshName @2 :Text;
+  tools @3 :List(UInt32);          # the tool ids that took part
+  firstTick @4 :UInt64;            # onset
+  endTick @5 :UInt64;              # release
+  vertices @6 :UInt64;             # vertices the stroke changed
+  bytes @7 :UInt64;                # memory its undo data takes
+  undone @8 :Bool;                 # on the redo side: undone, redo brings it back
+}
+
+# (minor 5) The daemon's stroke history, bounded by a memory budget (the
+# oldest strokes fall off first).
+struct History {
+  entries @0 :List(HistoryEntry);  # oldest first; at most the newest 16384 (the rest: omitted)
+  budgetBytes @1 :UInt64;
+  usedBytes @2 :UInt64;
+  dropped @3 :UInt64;              # strokes that fell off the budget so far
+  omitted @4 :UInt64;              # older strokes the daemon holds that this list leaves out
+}
+
+# (minor 5) An export being read: a file the daemon wrote and holds open
+# (no path to it on its side). Read it in chunks from offset 0 to `size`;
+# dropping the capability closes it. A reader nobody reads for 60 s is closed.
+interface ExportReader {
+  # At most `count` bytes from `offset`, and at most 4 MiB: fewer only at the
+  # end, none at `offset` = size. An offset past the end fails naming it.
+  read @0 (offset :UInt64, count :UInt32) -> (data :Data);
+}
+
 # Receives the stream; the daemon calls it. `-> stream` gives per-viewer flow
 # control: while a viewer has not taken its last frame the daemon does not
 # queue more, it coalesces (the next frame carries the latest state).
@@ -249,6 +282,18 @@ interface Session {
   reset @5 () -> (result :Result);   # every mesh back to its rest shape as loaded
   pause @6 () -> (result :Result);
   resume @7 () -> (result :Result);
+  # (minor 5) Undo / redo the last `count` strokes (1 to 10000). `done`: how
+  # many were; `tick`: the sim tick at which it applied. Refused (result.error)
+  # when there is nothing to undo/redo, or the stroke was made before a scene
+  # load or reset.
+  undo @8 (count :UInt32) -> (result :Result, done :UInt32, tick :UInt64);
+  redo @9 (count :UInt32) -> (result :Result, done :UInt32, tick :UInt64);
+  history @10 () -> (history :History);
+  # (minor 5) The whole sculpt (scene, meshes, current state, history) as one
+  # .sculpt file, `size` bytes, read through `reader`. At most 2 exports per
+  # connection and 8 in all may be open (being written, or held): past that,
+  # result.error says so.
+  exportSculpt @11 () -> (result :Result, size :UInt64, reader :ExportReader);
 }
 
 interface Subscription {

@@ -38,4 +38,18 @@ kj::Promise<std::string> ControlDesk::reset() {
   return load_([this] { return sims_.scene(); }, "reset");
 }
 
+kj::Promise<server::EditOutcome> ControlDesk::undo(std::uint32_t) {
+  return server::EditOutcome{"undo is not available yet"};
+}
+
+kj::Promise<server::EditOutcome> ControlDesk::redo(std::uint32_t) {
+  return server::EditOutcome{"redo is not available yet"};
+}
+
+server::History ControlDesk::history() { return {}; }
+
+kj::Promise<server::ExportOutcome> ControlDesk::export_sculpt() {
+  return server::ExportOutcome{"export is not available yet"};
+}
+
 }  // namespace sculpt::daemon

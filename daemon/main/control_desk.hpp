@@ -43,6 +43,11 @@ class ControlDesk final : public server::DaemonControl {
   kj::Promise<std::string> reset() override;
   std::string set_paused(bool paused) override { return sims_.set_paused(paused); }
   bool paused_now() override { return sims_.paused(); }
+  // Not implemented yet: each answers the error "not available yet".
+  kj::Promise<server::EditOutcome> undo(std::uint32_t count) override;
+  kj::Promise<server::EditOutcome> redo(std::uint32_t count) override;
+  server::History history() override;
+  kj::Promise<server::ExportOutcome> export_sculpt() override;
 
  private:
   SimHost& sims_;

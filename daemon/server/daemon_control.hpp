@@ -59,6 +59,41 @@ struct DeviceEntry {
   std::uint64_t ff_uploads = 0;
 };
 
+// One stroke of the history (proto::HistoryEntry): one tool's contact with a
+// mesh from onset to release.
+struct HistoryEntry {
+  std::uint32_t number = 0;        // stroke number, counting from 1 since the daemon's store was made
+  std::uint32_t mesh = 0;          // body index; mesh_name its name
+  std::string mesh_name;
+  std::vector<std::uint32_t> tools;  // tool slots that took part
+  std::uint64_t first_tick = 0, end_tick = 0;  // onset, release
+  std::uint64_t vertices = 0;      // vertices the stroke changed
+  std::uint64_t bytes = 0;         // memory its undo data takes
+  bool undone = false;             // on the redo side
+};
+
+struct History {
+  std::vector<HistoryEntry> entries;   // oldest first
+  std::uint64_t budget_bytes = 0, used_bytes = 0;
+  std::uint64_t dropped = 0;           // strokes that fell off the budget so far
+};
+
+struct EditOutcome {
+  std::string error;                   // "" on success, else why (nothing to undo, the stroke was made before a scene reload at tick N, ...)
+  std::uint32_t done = 0;              // strokes undone/redone
+  std::uint64_t tick = 0;              // tick at which it applied
+};
+
+struct ExportOutcome {
+  std::string error;
+  // A readable regular file (the daemon keeps no path to it: an unlinked or
+  // O_TMPFILE file, or a memfd) whose size is `bytes`; on success the server
+  // owns it and closes it (also when the client has gone meanwhile). On
+  // error, -1 (the server closes one given anyway).
+  int fd = -1;
+  std::uint64_t bytes = 0;
+};
+
 class DaemonControl {
  public:
   virtual ~DaemonControl() = default;
@@ -74,6 +109,19 @@ class DaemonControl {
   // What the sim thread runs now (pause answers once this agrees: a snapshot
   // taken after pause() returns is the final state).
   virtual bool paused_now() = 0;
+
+  // Undo / redo the last `count` strokes (the server passes 1 ≤ count ≤
+  // ServerOptions::max_edit_count only, at most a few calls per client at a
+  // time). EditOutcome.error says why not ("" when done).
+  virtual kj::Promise<EditOutcome> undo(std::uint32_t count) = 0;
+  virtual kj::Promise<EditOutcome> redo(std::uint32_t count) = 0;
+  // The stroke history now (the server sends the newest
+  // ServerOptions::max_history_entries of it).
+  virtual History history() = 0;
+  // The whole sculpt as one .sculpt file (written off the io loop). The
+  // server asks at most ServerOptions::max_exports at a time (open readers
+  // included).
+  virtual kj::Promise<ExportOutcome> export_sculpt() = 0;
 };
 
 }  // namespace sculpt::server

@@ -224,6 +224,30 @@ void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const Devic
   }
 }
 
+void fill_history(proto::History::Builder out, const History& history, std::size_t max_entries) {
+  const std::size_t n = std::min(history.entries.size(), max_entries);
+  const std::size_t first = history.entries.size() - n;
+  auto list = out.initEntries(static_cast<unsigned>(n));
+  for (unsigned i = 0; i < n; ++i) {
+    const HistoryEntry& e = history.entries[first + i];
+    auto o = list[i];
+    o.setNumber(e.number);
+    o.setMesh(e.mesh);
+    o.setMeshName(e.mesh_name);
+    auto tools = o.initTools(static_cast<unsigned>(e.tools.size()));
+    for (unsigned t = 0; t < tools.size(); ++t) tools.set(t, e.tools[t]);
+    o.setFirstTick(e.first_tick);
+    o.setEndTick(e.end_tick);
+    o.setVertices(e.vertices);
+    o.setBytes(e.bytes);
+    o.setUndone(e.undone);
+  }
+  out.setBudgetBytes(history.budget_bytes);
+  out.setUsedBytes(history.used_bytes);
+  out.setDropped(history.dropped);
+  out.setOmitted(first);
+}
+
 loop::StatsSnapshot stats_from(proto::Stats::Reader in) {
   loop::StatsSnapshot s;
   s.rate_hz = in.getRateHz();

@@ -26,6 +26,25 @@ class SubscriptionImpl final : public proto::Subscription::Server {
   std::uint64_t id_;
 };
 
+class ExportReaderImpl final : public proto::ExportReader::Server {
+ public:
+  ExportReaderImpl(server::Server& server, std::uint64_t id, std::uint64_t client)
+      : server_(server), id_(id), client_(client) {}
+  ~ExportReaderImpl() noexcept(false) { server_.close_export(id_); }
+
+  kj::Promise<void> read(ReadContext context) override {
+    if (!server_.admit(client_))
+      return kj::Promise<void>(KJ_EXCEPTION(DISCONNECTED, "over a limit (see the daemon's log): the connection is closing"));
+    const auto p = context.getParams();
+    server_.read_export(id_, p.getOffset(), p.getCount(), context.getResults());
+    return kj::READY_NOW;
+  }
+
+ private:
+  server::Server& server_;
+  std::uint64_t id_, client_;
+};
+
 class SessionImpl final : public proto::Session::Server {
  public:
   SessionImpl(server::Server& server, std::uint64_t client) : server_(server), client_(client) {}
@@ -74,6 +93,31 @@ class SessionImpl final : public proto::Session::Server {
     if (!error.empty()) return result(context.getResults().initResult(), error);
     return answer_when_paused(context.getResults().initResult(), false);
   }
+  kj::Promise<void> undo(UndoContext context) override { return edit(context, false); }
+  kj::Promise<void> redo(RedoContext context) override { return edit(context, true); }
+  kj::Promise<void> history(HistoryContext context) override {
+    return answer([&] { server_.fill_history(context.getResults().initHistory()); });
+  }
+  kj::Promise<void> exportSculpt(ExportSculptContext context) override {
+    if (!server_.admit(client_)) return closing();
+    if (const std::string why = server_.export_refusal(client_); !why.empty())
+      return result(context.getResults().initResult(), why);
+    std::uint64_t id = 0;
+    auto landed = server_.start_export(client_, id);
+    // After the answer, or when the call is cancelled.
+    auto release = kj::defer([&server = server_, id] { server.release_export(id); });
+    return landed
+        .then([this, context, id]() mutable {
+          auto r = context.getResults();
+          std::uint64_t size = 0;
+          const std::string error = server_.open_export(id, size);
+          fill(r.initResult(), error);
+          if (!error.empty()) return;
+          r.setSize(size);
+          r.setReader(make_export_reader(server_, id, client_));
+        })
+        .attach(kj::mv(release));
+  }
 
  private:
   // A call answered at once, unless the client is being closed.
@@ -91,6 +135,19 @@ class SessionImpl final : public proto::Session::Server {
       if (!obeyed)
         r.setError(paused ? "the simulation thread did not pause within 2 s (stalled or finished)"
                           : "the simulation thread did not resume within 2 s (stalled or finished)");
+    });
+  }
+  template <class Context>
+  kj::Promise<void> edit(Context context, bool redo) {
+    if (!server_.admit(client_)) return closing();
+    const std::uint32_t count = context.getParams().getCount();
+    if (const std::string why = server_.edit_refusal(client_, count); !why.empty())
+      return result(context.getResults().initResult(), why);
+    return server_.edit(client_, redo, count).then([context](EditOutcome o) mutable {
+      auto r = context.getResults();
+      fill(r.initResult(), o.error);
+      r.setDone(o.done);
+      r.setTick(o.tick);
     });
   }
   // A client over a limit gets no more answers: it is being disconnected.
@@ -156,6 +213,10 @@ class SculptdImpl final : public proto::Sculptd::Server {
 
 kj::Own<proto::Sculptd::Server> make_sculptd(Server& server, std::uint64_t client, std::string peer) {
   return kj::heap<SculptdImpl>(server, client, std::move(peer));
+}
+
+proto::ExportReader::Client make_export_reader(Server& server, std::uint64_t id, std::uint64_t client) {
+  return kj::heap<ExportReaderImpl>(server, id, client);
 }
 
 }  // namespace sculpt::server

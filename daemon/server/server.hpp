@@ -64,6 +64,24 @@ struct ServerOptions {
   std::uint64_t max_queued_bytes = std::uint64_t{64} << 20;
   // Subscriptions one connection may hold (each keeps a copy of the meshes).
   std::size_t max_viewers_per_client = 4;
+  // Undo/redo: strokes one call may ask for (1 … this; else refused, naming
+  // the count), and such calls of one connection being applied at once
+  // (past it, refused until one answers).
+  std::uint32_t max_edit_count = 10000;
+  std::size_t max_pending_edits_per_client = 4;
+  // history: the newest this many strokes (History.omitted counts the rest;
+  // 16384 entries are about 2 MB).
+  std::size_t max_history_entries = 16384;
+  // Exports (each an open file in the daemon until its reader is dropped):
+  // those being written or held, per connection and in all; past either the
+  // call is refused with the reason. A reader not read for
+  // export_idle_timeout is closed (its reads then fail, saying so).
+  std::size_t max_exports_per_client = 2;
+  std::size_t max_exports = 8;
+  kj::Duration export_idle_timeout = 60 * kj::SECONDS;
+  // One ExportReader.read answers at most this many bytes (a larger count is
+  // clamped): far inside the message limits of both sides.
+  std::uint32_t max_export_chunk = 4u << 20;
   // Where the server's log lines go (syslog priority: 3 error … 7 debug).
   std::function<void(int priority, const std::string& line)> log;
 };
@@ -112,6 +130,7 @@ class Server {
 
   std::size_t clients() const { return clients_.size(); }
   std::size_t viewers() const { return streams_.size(); }
+  std::size_t exports() const { return exports_.size(); }   // being written or held
   const ServerCounters& counters() const { return counters_; }
 
   // For the Session implementation (interfaces.cpp).
@@ -132,6 +151,32 @@ class Server {
   std::string refusal(std::uint64_t client) const;
   // Resolves true once the sim thread reports `paused`, false after `tries` ms.
   kj::Promise<bool> until_paused(bool paused, int tries = 2000);
+  // Undo (redo = false) or redo `count` strokes for a client, once
+  // edit_refusal has said nothing against it ("": go ahead; else the
+  // answer: the count out of range, too many such calls in flight). A
+  // failure of the daemon's promise becomes an outcome with its error.
+  std::string edit_refusal(std::uint64_t client, std::uint32_t count) const;
+  kj::Promise<EditOutcome> edit(std::uint64_t client, bool redo, std::uint32_t count);
+  void fill_history(proto::History::Builder out);
+  // An export for a client, once export_refusal has said nothing against it
+  // (too many exports). start_export takes a place for it, asks the daemon
+  // and resolves when the daemon has answered; open_export then gives "" and
+  // the size, the export now held by a reader (make_export_reader), or the
+  // daemon's error. release_export must follow whatever happened (also a
+  // cancelled call): it gives the place back unless a reader holds it. The
+  // daemon's answer is taken by the server, not the call, so an export keeps
+  // its place while the daemon writes it, also after its client has gone
+  // (whose file is then closed as it lands).
+  std::string export_refusal(std::uint64_t client) const;
+  kj::Promise<void> start_export(std::uint64_t client, std::uint64_t& id);
+  std::string open_export(std::uint64_t id, std::uint64_t& size);
+  void release_export(std::uint64_t id);
+  // ExportReader (interfaces.cpp): `count` bytes (clamped) at `offset` of
+  // export `id` into `out`; a bad offset, an expired export or a failed
+  // read throws (the call fails with the reason).
+  void read_export(std::uint64_t id, std::uint64_t offset, std::uint32_t count,
+                   proto::ExportReader::ReadResults::Builder out);
+  void close_export(std::uint64_t id);
   const ServerOptions& options() const { return options_; }
 
  private:
@@ -155,6 +200,11 @@ class Server {
   kj::Promise<void> pump_loop();
   kj::Promise<void> track_send(std::uint64_t id, kj::Promise<void> sent);
   DaemonStatus status_now();
+  // Closes export readers not read for export_idle_timeout.
+  void expire_exports(std::int64_t now);
+  // The daemon's answer to export `id` (an fd of -1: none); closes the fd when
+  // the export is gone.
+  void land_export(std::uint64_t id, std::string error, int fd, std::uint64_t bytes);
   void send_snapshot(Stream& s);
   bool send_frame(Stream& s, std::int64_t now);
 
@@ -169,7 +219,9 @@ class Server {
   kj::Own<kj::UnixEventPort::FdObserver> listen_observer_;
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;
   std::map<std::uint64_t, std::unique_ptr<Stream>> streams_;
-  std::uint64_t next_client_ = 1, next_stream_ = 1;
+  struct Export;
+  std::map<std::uint64_t, std::unique_ptr<Export>> exports_;
+  std::uint64_t next_client_ = 1, next_stream_ = 1, next_export_ = 1;
   ServerCounters counters_;
   std::vector<std::vector<std::uint32_t>> scratch_;  // per body: indices of one frame
   std::int64_t refused_logged_ns_ = 0;

@@ -2,7 +2,11 @@
 // sends on its socket (capnp framing, RPC messages, our methods' params).
 // The server serves it through an in-memory pipe exactly as it serves a
 // socket, with the reader limits sculptd uses; whatever it is, the server
-// must not crash and must let the client go when it hangs up.
+// must not crash, and must let the client go when it hangs up and close
+// every export file it was given for it.
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -38,7 +42,44 @@ class FakeControl final : public server::DaemonControl {
     return {};
   }
   bool paused_now() override { return paused; }
+  kj::Promise<server::EditOutcome> undo(std::uint32_t count) override { return edit(count); }
+  kj::Promise<server::EditOutcome> redo(std::uint32_t count) override { return edit(count); }
+  server::History history() override {
+    server::History h;
+    h.budget_bytes = 1 << 20;
+    for (std::uint32_t i = 1; i <= 3; ++i) {
+      server::HistoryEntry e;
+      e.number = i;
+      e.mesh_name = "ball";
+      e.tools = {0};
+      e.undone = i == 3;
+      h.entries.push_back(e);
+    }
+    return h;
+  }
+  kj::Promise<server::ExportOutcome> export_sculpt() override {
+    // A small file (the seeds read it in one chunk), a memfd like one the daemon could give.
+    server::ExportOutcome o;
+    o.fd = ::memfd_create("fuzz-export", MFD_CLOEXEC);
+    if (o.fd < 0) {
+      o.error = "memfd_create failed";
+      return o;
+    }
+    static const char bytes[10240] = {'s', 'c', 'u', 'l', 'p', 't'};
+    o.bytes = ::write(o.fd, bytes, sizeof bytes) == static_cast<ssize_t>(sizeof bytes) ? sizeof bytes : 0;
+    if (o.bytes == 0) o.error = "write failed";
+    return o;
+  }
   bool paused = false;
+
+ private:
+  static kj::Promise<server::EditOutcome> edit(std::uint32_t count) {
+    server::EditOutcome o;
+    if (count > 3) o.error = "nothing more to undo";
+    else o.done = count;
+    o.tick = 42;
+    return o;
+  }
 };
 
 struct Fixture {
@@ -91,7 +132,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   writing = nullptr;
   reading = nullptr;
   client = nullptr;
-  for (int i = 0; i < 200 && f.server->clients() > 0; ++i) f.io.waitScope.poll();
-  if (f.server->clients() != 0) std::abort();
+  for (int i = 0; i < 200 && (f.server->clients() > 0 || f.server->exports() > 0); ++i) f.io.waitScope.poll();
+  if (f.server->clients() != 0 || f.server->exports() != 0) std::abort();
   return 0;
 }

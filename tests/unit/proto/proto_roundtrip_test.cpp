@@ -1,12 +1,15 @@
-// The wire protocol compiles, and a delta frame survives a trip through the
-// unpacked stream encoding the server uses.
+// The wire protocol compiles, its later minors only added methods after the
+// old ones, and a delta frame survives a trip through the unpacked stream
+// encoding the server uses.
 #include <gtest/gtest.h>
 
 #include <capnp/message.h>
+#include <capnp/schema.h>
 #include <capnp/serialize.h>
 #include <kj/io.h>
 
 #include <cstring>
+#include <iterator>
 #include <vector>
 
 #include "sculpt.capnp.h"
@@ -14,6 +17,20 @@
 TEST(Proto, VersionConstants) {
   EXPECT_EQ(sculpt::proto::PROTOCOL_MAJOR, 1);
   EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 0);
+}
+
+TEST(Proto, MethodsKeepTheirOrdinalsAndMinorFiveAppendsItsOwn) {
+  // A method's ordinal is what goes on the wire: an old client's call must
+  // still reach the same method.
+  const auto session = capnp::Schema::from<sculpt::proto::Session>();
+  const char* methods[] = {"status", "devices", "snapshot", "subscribe", "loadScene", "reset",
+                           "pause",  "resume",  "undo",     "redo",      "history",   "exportSculpt"};
+  ASSERT_EQ(session.getMethods().size(), std::size(methods));
+  for (unsigned i = 0; i < std::size(methods); ++i)
+    EXPECT_EQ(session.getMethodByName(methods[i]).getOrdinal(), i) << methods[i];
+  EXPECT_EQ(capnp::Schema::from<sculpt::proto::ExportReader>().getMethodByName("read").getOrdinal(), 0u);
+  EXPECT_EQ(capnp::Schema::from<sculpt::proto::Sculptd>().getMethodByName("hello").getOrdinal(), 0u);
+  EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 5) << "undo, redo, history and exportSculpt came with minor 5";
 }
 
 TEST(Proto, DeltaFrameRoundTrip) {
