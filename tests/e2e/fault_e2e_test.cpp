@@ -481,7 +481,8 @@ TEST(Small, DirectoriesSculptdCreatesIgnoreTheUmask) {
 
 TEST(Small, UsageErrorsOfSculptctlExit2NamingWhatIsWrong) {
   for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
-           {"--frobnicate"}, {"frob"}, {}, {"status", "--bogus"}, {"save"}, {"inspect", "--material", "tin", "x.obj"}}) {
+           {"--frobnicate"}, {"frob"}, {}, {"status", "--bogus"}, {"save"}, {"inspect", "--material", "tin", "x.obj"},
+           {"undo", "0"}, {"redo", "10001"}, {"export"}}) {
     const CtlRun r = sculptctl(args);
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_EQ(r.err.rfind("sculptctl: error: ", 0), 0u) << r.err;

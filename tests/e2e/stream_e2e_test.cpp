@@ -441,6 +441,26 @@ TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
   r = with({"load", "builtin:default", "--json"});
   EXPECT_EQ(r.status, 0) << r.err;
 
+  // The stroke history (protocol 1.5): the daemon answers each command
+  // (done, or its refusal with exit 1; never a broken connection), history
+  // --json has its keys, and a refused export leaves no file.
+  r = with({"history", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto history = nlohmann::json::parse(r.out);
+  for (const char* k : {"strokes", "budget_bytes", "used_bytes", "dropped", "omitted"})
+    EXPECT_TRUE(history.contains(k)) << k << ": " << r.out;
+  for (const char* cmd : {"undo", "redo"}) {
+    r = with({cmd, "--json"});
+    EXPECT_TRUE(r.status == 0 || r.status == 1) << cmd << ": " << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["command"], cmd);
+  }
+  const std::string sculpt_file = temp_path("e2e.sculpt");
+  r = with({"export", sculpt_file});
+  EXPECT_TRUE(r.status == 0 || r.status == 1) << r.err;
+  if (r.status == 0) EXPECT_GT(read_text(sculpt_file).size(), 0u);
+  else EXPECT_FALSE(std::ifstream(sculpt_file).good()) << "a failed export left " << sculpt_file;
+  ::unlink(sculpt_file.c_str());
+
   // --stats-json at exit has exactly the keys status --json prints.
   d.process->signal(SIGTERM);
   ASSERT_EQ(d.process->wait_exit(30s), 0);
@@ -456,6 +476,12 @@ TEST(Sculptctl, NoDaemonIsADistinctExitStatus) {
     EXPECT_NE(r.err.find("no daemon is listening on " + path), std::string::npos) << r.err;
   }
   CtlRun r = sculptctl({"save", temp_path("x.obj"), "--socket", path});
+  EXPECT_EQ(r.status, 3);
+  for (const char* cmd : {"undo", "redo", "history"}) {
+    r = sculptctl({cmd, "--socket", path});
+    EXPECT_EQ(r.status, 3) << cmd;
+  }
+  r = sculptctl({"export", temp_path("x.sculpt"), "--socket", path});
   EXPECT_EQ(r.status, 3);
   r = sculptctl({"load", "builtin:default", "--socket", path});
   EXPECT_EQ(r.status, 3);

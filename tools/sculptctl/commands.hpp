@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -77,5 +78,23 @@ struct LoadArgs {
 void load(const LoadArgs& args);
 enum class Control { reset, pause, resume };
 void control(const DaemonArgs& args, Control what);
+
+// `undo [N]`, `redo [N]` and `history` (history.cpp): the daemon's strokes.
+inline constexpr std::uint32_t kMaxEditCount = 10000;  // the daemon's max_edit_count
+struct EditArgs {
+  DaemonArgs daemon;
+  std::uint32_t count = 1;
+};
+enum class Edit { undo, redo };
+void edit(const EditArgs& args, Edit what);
+void history(const DaemonArgs& args);
+
+// `export FILE [--force]` (export.cpp): the whole sculpt as one .sculpt file.
+struct ExportArgs {
+  DaemonArgs daemon;
+  std::string file;
+  bool force = false;
+};
+void export_sculpt(const ExportArgs& args);
 
 }  // namespace sculpt::ctl

@@ -1,5 +1,7 @@
 #include "daemon_link.hpp"
 
+#include <fmt/format.h>
+
 #include "cli/conventions.hpp"
 #include "client/socket_path.hpp"
 #include "commands.hpp"
@@ -9,6 +11,13 @@ namespace sculpt::ctl {
 void fail(int status, const std::string& message) {
   cli::error(message);
   throw CommandFailed{status};
+}
+
+void require_minor(const client::Connection& c, std::uint16_t minor, const char* command) {
+  if (c.server_minor() >= minor) return;
+  fail(kExitIncompatible, fmt::format("{}: the daemon ({}) speaks protocol {}.{}; {} needs {}.{} or later (update sculptd)",
+                                      command, c.server(), proto::PROTOCOL_MAJOR, c.server_minor(), command,
+                                      proto::PROTOCOL_MAJOR, minor));
 }
 
 void with_daemon(const DaemonArgs& args, const std::function<void(client::Connection&, kj::WaitScope&)>& f) {

@@ -28,4 +28,8 @@ void with_daemon(const DaemonArgs& args, const std::function<void(client::Connec
 // Prints an error line and throws CommandFailed{status}.
 [[noreturn]] void fail(int status, const std::string& message);
 
+// Fails with kExitIncompatible, naming both versions, when the daemon
+// speaks a protocol minor older than `minor` (what `command` needs).
+void require_minor(const client::Connection& c, std::uint16_t minor, const char* command);
+
 }  // namespace sculpt::ctl

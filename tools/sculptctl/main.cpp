@@ -1,5 +1,7 @@
 // sculptctl: the command-line companion of sculptd. This file is its whole
 // command line: every command, its options, and what it runs (commands.hpp).
+#include <tuple>
+
 #include <CLI/CLI.hpp>
 
 #include "cli/conventions.hpp"
@@ -24,6 +26,9 @@ struct Args {
   DaemonArgs status, devices, reset, pause, resume;
   SaveArgs save;
   LoadArgs load;
+  EditArgs undo, redo;
+  DaemonArgs history;
+  ExportArgs exported;
 };
 
 void add_commands(CLI::App& app, Args& a) {
@@ -81,6 +86,25 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->add_option("SCENE", a.load.scene, "scene file (TOML) or builtin:default")->required();
   add_daemon_options(*cmd, a.load.daemon);
   cmd->callback([&a] { load(a.load); });
+
+  for (auto [name, help, args, what] :
+       {std::tuple{"undo", "undo the last N strokes (the daemon's history)", &a.undo, Edit::undo},
+        std::tuple{"redo", "redo the last N undone strokes", &a.redo, Edit::redo}}) {
+    cmd = app.add_subcommand(name, help);
+    cmd->add_option("N", args->count, "how many strokes (default 1)")->check(CLI::Range(1u, kMaxEditCount));
+    add_daemon_options(*cmd, args->daemon);
+    cmd->callback([args = args, what = what] { edit(*args, what); });
+  }
+
+  cmd = app.add_subcommand("history", "the daemon's strokes (tools, mesh, ticks, vertices, undo data) and budget");
+  add_daemon_options(*cmd, a.history);
+  cmd->callback([&a] { history(a.history); });
+
+  cmd = app.add_subcommand("export", "write the whole sculpt (scene, meshes, state, history) as one .sculpt file");
+  cmd->add_option("FILE", a.exported.file, "where to write (FILE.sculpt); written atomically")->required();
+  cmd->add_flag("--force", a.exported.force, "replace FILE if it exists");
+  add_daemon_options(*cmd, a.exported.daemon);
+  cmd->callback([&a] { export_sculpt(a.exported); });
 
   struct Simple {
     const char* name;
