@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "sim/aligned_buffer.hpp"
@@ -45,9 +46,14 @@ struct Pinned {
 
 template <class S>
 struct Grab {
+  struct NoGap {};
   std::uint32_t i;     // internal index
+  // Double aligns ox to 8 bytes. A named gap, zero, where padding would take
+  // whatever bytes a store left in it: World::state() copies grabs whole.
+  [[no_unique_address]] std::conditional_t<sizeof(S) == 8, std::uint32_t, NoGap> gap{};
   S ox, oy, oz;        // offset from the tool centre at the moment of the grab
 };
+static_assert(sizeof(Grab<float>) == 16 && sizeof(Grab<double>) == 32);
 
 template <class S>
 struct BlockState {

@@ -47,7 +47,9 @@ void take_hold(Body<S>& b, ToolContact<S>& tc, const ToolTrack<S>& tr) {
     for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk) && tc.grab_count < tc.grabs.size(); ++i) {
       const V3<S> p{b.x[i], b.y[i], b.z[i]};
       const V3<S> d = geometry::sub(p, geometry::closest_on_segment(p, p0, p1));
-      if (geometry::dot(d, d) <= reach * reach) tc.grabs[tc.grab_count++] = {i, p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+      if (!(geometry::dot(d, d) <= reach * reach)) continue;
+      Grab<S>& g = tc.grabs[tc.grab_count++];
+      g.i = i, g.ox = p[0] - c[0], g.oy = p[1] - c[1], g.oz = p[2] - c[2];
     }
   }
 }
