@@ -7,11 +7,13 @@
 #include <limits>
 
 #include "sim/body.hpp"
+#include "sim/edit_hook.hpp"
 
 namespace sculpt::sim {
 
 template <class S>
 void wake_block(Body<S>& b, std::uint32_t blk) {
+  will_change(b, blk);
   BlockState<S>& s = b.block[blk];
   s.quiet_ticks = 0;
   if (!s.awake) {
@@ -23,6 +25,7 @@ void wake_block(Body<S>& b, std::uint32_t blk) {
 // The block's exact box from its vertices now.
 template <class S>
 void refit_block(Body<S>& b, std::uint32_t blk) {
+  will_change(b, blk);
   BlockState<S>& s = b.block[blk];
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
   std::array<S, 3> lo{b.x[b0], b.y[b0], b.z[b0]}, hi = lo;

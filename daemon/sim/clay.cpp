@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "sim/edit_hook.hpp"
+
 namespace sculpt::sim {
 
 using kernel::kBlock;
@@ -58,6 +60,7 @@ void apply_yields(Body<S>& b, std::uint32_t blk, const std::uint8_t* mask, const
   // Springs: perfect plasticity, strain clamped to ±yield; both directed
   // copies of a spring get the same bits, wherever the other one lives.
   auto set_mirror = [&](std::uint32_t j, std::uint32_t i, S value) {
+    will_change(b, j / kBlock);  // the other end may be in a block that sleeps
     for (int s = 0; s < b.columns; ++s) {
       const std::size_t e = static_cast<std::size_t>(s) * b.n + j;
       if (static_cast<std::int32_t>(j) + b.nbr[e] == static_cast<std::int32_t>(i) && j != i) {

@@ -28,6 +28,7 @@ bool overlaps(const std::array<S, 3>& alo, const std::array<S, 3>& ahi, const st
 template <class S>
 void hold_grabbed(Body<S>& b, const ToolContact<S>& tc) {
   for (std::uint32_t g = 0; g < tc.grab_count; ++g) {
+    will_change(b, tc.grabs[g].i / kBlock);
     wake_block(b, tc.grabs[g].i / kBlock);
     b.block[tc.grabs[g].i / kBlock].touched = true;
   }
@@ -77,6 +78,7 @@ std::uint32_t find_candidates(Body<S>& b, std::uint32_t t, const ToolTrack<S>& t
       if (!overlaps(s.lo, s.hi, tr.lo, tr.hi, s.reach)) continue;
     }
     tc.candidates[tc.candidate_count++] = blk;
+    will_change(b, blk);
     s.touched = true;
     wake_block(b, blk);
   }
@@ -89,6 +91,7 @@ template <class S>
 void push_vertex(Body<S>& b, std::uint32_t i, const std::array<S, 3>& delta, const std::array<S, 3>& normal,
                  S tool_normal_speed, S dts, ToolTrack<S>& tr) {
   const std::uint32_t blk = i / kBlock;
+  will_change(b, blk);
   if (!b.block[blk].awake) wake_block(b, blk);
   b.block[blk].changed = true;
   b.block[blk].dirty = true;

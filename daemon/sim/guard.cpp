@@ -9,6 +9,7 @@ namespace sculpt::sim {
 
 template <class S>
 void snapshot_block(Body<S>& b, std::uint32_t blk) {
+  will_change(b, blk);
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
   // Positions and clay rest shape from the same tick, or neither: a block
   // that is not finite keeps its older snapshot whole (and stays dirty).
@@ -28,6 +29,7 @@ void snapshot_block(Body<S>& b, std::uint32_t blk) {
 
 template <class S>
 void restore_body(Body<S>& b) {
+  for (std::uint32_t blk = 0; blk < b.blocks; ++blk) will_change(b, blk);  // asleep ones too
   for (std::uint32_t i = 0; i < b.n; ++i) {
     const std::array<S, 3> p = b.saved_position(i);
     b.x[i] = p[0], b.y[i] = p[1], b.z[i] = p[2];
@@ -56,6 +58,7 @@ void restore_body(Body<S>& b) {
 
 template <class S>
 void sleep_block(Body<S>& b, std::uint32_t blk) {
+  will_change(b, blk);
   BlockState<S>& s = b.block[blk];
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
   for (std::uint32_t i = b0; i < b1; ++i) {

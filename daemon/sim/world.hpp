@@ -17,6 +17,8 @@
 
 #include "sim/body.hpp"
 #include "sim/contact.hpp"
+#include "sim/edit_capture.hpp"
+#include "sim/edits.hpp"
 #include "sim/grab.hpp"
 #include "sim/stepper.hpp"
 #include "sim/tool_track.hpp"
@@ -101,9 +103,33 @@ class World {
   // (allocates); a world built from the same scene and settings continues
   // from them bit for bit. restore_state throws std::invalid_argument naming
   // what does not match (another scene, precision or build), leaving the
-  // world as it was. Between ticks only.
+  // world as it was. Between ticks only. Restoring closes the open edits.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
+
+  // Edits (sim/edits.hpp, docs/simulation.md): with a sink, the world tells
+  // it each body's edits and hands it the image of every block an open edit
+  // is about to change. nullptr (the default): nothing is recorded, and it
+  // costs a branch. Either way the same scene and inputs give the same bits.
+  // Setup or between ticks; closes the open edits first (to the old sink).
+  void set_edit_sink(EditSink* sink);
+  // Closes every open edit now (last_tick: tick()), between ticks: before an
+  // undo or redo, or a scene swap. A tool still near opens a new one next tick.
+  void close_edits();
+  // A block's image (block_image.hpp): the same size for every block of a
+  // body (0 for a body without vertices). Throws std::invalid_argument on a
+  // body or block that does not exist, or an `out` of another size.
+  std::size_t block_image_bytes(std::uint32_t body) const;
+  void block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> out) const;
+  // Exchanges block `block` of `body` with `image` (one from block_image or
+  // EditSink::captured of the same block of a world of the same scene): the
+  // world takes the image, the image takes what the world had; swapping again
+  // gives both back. The next step lists the block in changes(), even if it
+  // sleeps. Between ticks, allocation-free (the real-time thread undoes).
+  // Throws std::invalid_argument, changing nothing, on a body or block that
+  // does not exist, an image of another size, or a body with an open edit
+  // (close_edits() first).
+  void swap_block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> image);
 
   // FNV-1a over the position bits of every body in original order.
   std::uint64_t hash() const;
@@ -113,13 +139,14 @@ class World {
   void read_tools(std::span<const Tool> tools);
   void report_tools();
   void step_body(std::uint32_t bi);
-  void find_contacts(Body<S>& b);
+  void find_contacts(std::uint32_t bi);
   Substep<S> begin_tick(std::uint32_t bi);
   void resolve_contacts(Body<S>& b, const Substep<S>& s);
   void judge(std::uint32_t bi, bool finite);
   void settle(Body<S>& b, double energy);
   void log_changes(std::uint32_t bi);
   void read_state(class StateReader& r);
+  void check_block(const char* what, std::uint32_t body, std::uint32_t block, std::size_t bytes) const;
 
   SimSettings settings_;
   std::uint32_t tool_slots_;
@@ -127,6 +154,8 @@ class World {
   std::vector<StepPath> paths_;                       // per body, chosen in add_body
   std::vector<std::unique_ptr<Stepper<S>>> steppers_;  // per body
   std::vector<int> base_substeps_;
+  std::vector<std::unique_ptr<EditRecorder<S>>> edits_;  // per body
+  EditSink* edit_sink_ = nullptr;
   std::vector<ToolTrack<S>> tracks_;
   std::vector<ToolFeedback> feedback_;
   std::vector<ChangeRange> changes_;

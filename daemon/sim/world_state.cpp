@@ -112,6 +112,8 @@ template <class S>
 void World<S>::restore_state(std::span<const std::byte> bytes) {
   StateReader check(bytes, /*dry=*/true);
   read_state(check);
+  close_edits();  // their images are of the state being replaced
+  for (auto& e : edits_) e->forget_swaps();
   StateReader r(bytes, /*dry=*/false);
   read_state(r);
   for (Body<S>& b : bodies_) {

@@ -1,0 +1,75 @@
+// World's edits API (world.hpp): the sink, closing edits, and block images
+// read and swapped. The recording itself is EditRecorder's (edit_capture.hpp).
+#include <string>
+
+#include "sim/world.hpp"
+
+namespace sculpt::sim {
+
+template <class S>
+void World<S>::set_edit_sink(EditSink* sink) {
+  close_edits();  // an edit the old sink saw open, it sees closed
+  edit_sink_ = sink;
+  for (auto& e : edits_) e->set_sink(sink);
+}
+
+template <class S>
+void World<S>::close_edits() {
+  for (std::uint32_t bi = 0; bi < bodies_.size(); ++bi) edits_[bi]->close_now(bodies_[bi], tick_);
+}
+
+// Throws std::invalid_argument naming what is wrong (and only then builds a
+// message: a swap runs on the real-time thread). `bytes`: the image's size,
+// or SIZE_MAX for none.
+template <class S>
+void World<S>::check_block(const char* what, std::uint32_t body, std::uint32_t block, std::size_t bytes) const {
+  auto fail = [&](const std::string& why) { throw std::invalid_argument(std::string(what) + ": " + why); };
+  if (body >= bodies_.size())
+    fail("body " + std::to_string(body) + " does not exist (" + std::to_string(bodies_.size()) + " bodies)");
+  if (bytes == SIZE_MAX) return;
+  if (block >= bodies_[body].blocks)
+    fail("block " + std::to_string(block) + " of body " + std::to_string(body) + " does not exist (" +
+         std::to_string(bodies_[body].blocks) + " blocks)");
+  if (bytes != edits_[body]->layout().bytes)
+    fail("an image of body " + std::to_string(body) + " is " + std::to_string(edits_[body]->layout().bytes) +
+         " bytes, not " + std::to_string(bytes));
+}
+
+template <class S>
+std::size_t World<S>::block_image_bytes(std::uint32_t body) const {
+  check_block("block_image_bytes", body, 0, SIZE_MAX);
+  return edits_[body]->layout().bytes;
+}
+
+template <class S>
+void World<S>::block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> out) const {
+  check_block("block_image", body, block, out.size());
+  write_block_image(bodies_[body], edits_[body]->layout(), block, out.data());
+}
+
+template <class S>
+void World<S>::swap_block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> image) {
+  check_block("swap_block_image", body, block, image.size());
+  // The open edit would hold the swap as part of the stroke, and its images
+  // would no longer match what undoing it must put back.
+  if (edits_[body]->open())
+    throw std::invalid_argument("swap_block_image: body " + std::to_string(body) +
+                                " has an open edit; close_edits() first");
+  swap_block_state(bodies_[body], edits_[body]->layout(), block, image.data());
+  edits_[body]->swapped(block);
+}
+
+template void World<float>::set_edit_sink(EditSink*);
+template void World<double>::set_edit_sink(EditSink*);
+template void World<float>::close_edits();
+template void World<double>::close_edits();
+template void World<float>::check_block(const char*, std::uint32_t, std::uint32_t, std::size_t) const;
+template void World<double>::check_block(const char*, std::uint32_t, std::uint32_t, std::size_t) const;
+template std::size_t World<float>::block_image_bytes(std::uint32_t) const;
+template std::size_t World<double>::block_image_bytes(std::uint32_t) const;
+template void World<float>::block_image(std::uint32_t, std::uint32_t, std::span<std::byte>) const;
+template void World<double>::block_image(std::uint32_t, std::uint32_t, std::span<std::byte>) const;
+template void World<float>::swap_block_image(std::uint32_t, std::uint32_t, std::span<std::byte>);
+template void World<double>::swap_block_image(std::uint32_t, std::uint32_t, std::span<std::byte>);
+
+}  // namespace sculpt::sim
