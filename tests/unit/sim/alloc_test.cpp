@@ -2,6 +2,7 @@
 // binary is counted.
 #include <gtest/gtest.h>
 
+#include "sim/edits.hpp"
 #include "sim/kernels.hpp"
 #include "sim_test_util.hpp"
 #include "support/allocation_counter.hpp"
@@ -49,6 +50,57 @@ TEST(RealTime, StepDoesNotAllocate) {
       EXPECT_FALSE(w.body(2).far_vertices.empty());
     }
   }
+}
+
+// An edit sink that keeps nothing (a checksum), so what is counted is the
+// world's own recording, and undo's swaps.
+class ChecksumSink : public EditSink {
+ public:
+  void opened(std::uint32_t, std::uint64_t) override { ++opened_; }
+  void captured(std::uint32_t, std::uint32_t, std::span<const std::byte> image) override {
+    ++captured_;
+    for (std::byte c : image) sum_ += static_cast<unsigned>(c);
+  }
+  void closed(std::uint32_t, const EditSummary&) override { ++closed_; }
+  long opened_ = 0, captured_ = 0, closed_ = 0;
+  unsigned long sum_ = 0;
+};
+
+TEST(RealTime, RecordingEditsAndSwappingImagesDoNotAllocate) {
+  World<float> w(SimSettings{}, 2);
+  Material clay;
+  clay.plastic = true;
+  w.add_body(make_icosphere(0.1f, 4), clay);
+  w.add_body(make_torus(0.3f, 0.05f, 128, 164), Material{});  // the ring path, far springs
+  ChecksumSink sink;
+  w.set_edit_sink(&sink);
+  std::vector<std::byte> images[2];
+  for (std::uint32_t b = 0; b < 2; ++b) {
+    images[b].resize(w.block_image_bytes(b));
+    w.block_image(b, 3, images[b]);
+  }
+  Tool tools[2];
+  tools[0].radius = 0.02;
+  tools[1].radius = 0.03;
+  support::count_allocations_on_this_thread(true);
+  const long before = support::counted_allocations();
+  for (int n = 0; n < 400; ++n) {
+    tools[0].position = {0.0, 0.125 - 0.03 * std::min(n, 200) / 200.0, 0.0};
+    tools[1].position = {0.3, 0.05, 0.0};
+    tools[1].grab = n > 100 && n < 200;
+    if (n > 300) tools[0].active = tools[1].active = false;
+    w.step(tools);
+  }
+  w.close_edits();
+  for (int k = 0; k < 10; ++k)
+    for (std::uint32_t b = 0; b < 2; ++b) w.swap_block_image(b, 3, images[b]);
+  for (int n = 0; n < 20; ++n) w.step({});
+  EXPECT_EQ(support::counted_allocations() - before, 0);
+  support::count_allocations_on_this_thread(false);
+  EXPECT_GE(sink.opened_, 2);
+  EXPECT_GT(sink.captured_, 0);
+  EXPECT_EQ(sink.closed_, sink.opened_);
+  w.set_edit_sink(nullptr);
 }
 
 }  // namespace

@@ -10,51 +10,6 @@
 namespace sculpt::sim {
 namespace {
 
-TriangleMesh random_mesh(std::mt19937& rng) {
-  std::uniform_int_distribution<int> kind(0, 4);
-  std::uniform_real_distribution<float> coord(-0.1f, 0.1f);
-  TriangleMesh m;
-  switch (kind(rng)) {
-    case 0:  // triangle soup: non-manifold edges everywhere, isolated vertices
-    default: {
-      const int n = std::uniform_int_distribution<int>(1, 300)(rng);
-      for (int i = 0; i < n; ++i) m.positions.push_back({coord(rng), coord(rng), coord(rng)});
-      std::uniform_int_distribution<std::uint32_t> v(0, n - 1);
-      const int t = std::uniform_int_distribution<int>(0, 2 * n)(rng);
-      for (int i = 0; i < t; ++i) m.triangles.push_back({v(rng), v(rng), v(rng)});
-      break;
-    }
-    case 1: {  // a sphere with duplicated (unwelded) and coincident vertices
-      m = make_icosphere(0.05f, 2);
-      const std::size_t n = m.positions.size();
-      for (std::size_t i = 0; i < n; i += 3) m.positions.push_back(m.positions[i]);
-      for (std::size_t t = 0; t < m.triangles.size(); t += 4) m.triangles[t][0] = static_cast<std::uint32_t>(n + t / 12);
-      break;
-    }
-    case 2: {  // zero-length edges: a collapsed region and degenerate triangles
-      m = make_box_grid({0.1f, 0.05f, 0.1f}, 4);
-      for (std::size_t i = 0; i < m.positions.size(); i += 5) m.positions[i] = m.positions[0];
-      m.triangles.push_back({0, 0, 0});
-      m.triangles.push_back({1, 1, 2});
-      break;
-    }
-    case 3: {  // a fan: one vertex of very high degree (overflow path)
-      m.positions.push_back({0, 0, 0});
-      const int n = 80;
-      for (int i = 0; i < n; ++i) m.positions.push_back({0.05f * std::cos(i * 0.0785f), 0.05f * std::sin(i * 0.0785f), 0});
-      for (std::uint32_t i = 1; i <= n; ++i) m.triangles.push_back({0, i, i % n + 1});
-      break;
-    }
-    case 4: {  // flat sheet, everything in one plane, plus a stray far vertex
-      m = make_torus(0.05f, 0.01f, 12, 6);
-      for (auto& p : m.positions) p[1] = 0;
-      m.positions.push_back({10.0f, 10.0f, 10.0f});
-      break;
-    }
-  }
-  return m;
-}
-
 TEST(Fuzz, RandomMeshesAndToolPathsStayFinite) {
   std::mt19937 rng(20261121);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -73,7 +28,7 @@ TEST(Fuzz, RandomMeshesAndToolPathsStayFinite) {
       m.plastic = u(rng) < 0.4;
       m.gravity = u(rng) < 0.3;
       BodyOptions o;
-      const TriangleMesh mesh = random_mesh(rng);
+      const TriangleMesh mesh = test::random_mesh(rng);
       if (u(rng) < 0.3) o.pinned = {0};
       w.add_body(mesh, m, o);
     }
