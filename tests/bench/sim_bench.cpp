@@ -3,11 +3,14 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "sim/baseline.hpp"
 #include "sim/body.hpp"
+#include "sim/edits.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
@@ -187,6 +190,82 @@ void BM_StepIdle(benchmark::State& state) {
   for (auto _ : state) w.step({});
 }
 BENCHMARK(BM_StepIdle)->Unit(benchmark::kNanosecond);
+
+// Keeps the images of body 0's edits (the latest edit's, once it closes).
+class KeepImages : public EditSink {
+ public:
+  void opened(std::uint32_t, std::uint64_t) override { blocks.clear(), images.clear(), open = true; }
+  void captured(std::uint32_t, std::uint32_t block, std::span<const std::byte> image) override {
+    blocks.push_back(block);
+    images.emplace_back(image.begin(), image.end());
+  }
+  void closed(std::uint32_t, const EditSummary& e) override { open = false, edit = e; }
+  std::vector<std::uint32_t> blocks;
+  std::vector<std::vector<std::byte>> images;
+  EditSummary edit;
+  bool open = false;
+};
+
+// A recorded stroke on the 164k sphere: a tool presses 30 mm in over 200
+// ticks, holds 100, leaves, and the sphere settles for 200 more (then the
+// edit is closed, as the daemon does before an undo). Built once per
+// material: the stroke takes a while, and every repetition swaps the same.
+struct RecordedStroke {
+  World<float> world{SimSettings{}, 1};
+  KeepImages sink;
+};
+RecordedStroke& recorded_stroke(bool clay) {
+  static std::unique_ptr<RecordedStroke> strokes[2];
+  std::unique_ptr<RecordedStroke>& r = strokes[clay];
+  if (r) return *r;
+  r = std::make_unique<RecordedStroke>();
+  Material m;
+  m.plastic = clay;
+  r->world.add_body(make_icosphere(0.1f, 7), m);
+  r->world.set_edit_sink(&r->sink);
+  for (long tick = 0; tick < 500; ++tick) {
+    Tool t;
+    t.radius = 0.02;
+    t.position = {0.0, 0.125 - 0.035 * std::min(tick, 200L) / 200.0, 0.0};
+    t.active = tick < 300;
+    r->world.step({&t, 1});
+  }
+  r->world.close_edits();
+  r->world.set_edit_sink(nullptr);
+  return *r;
+}
+
+// Undo of that stroke: the images it captured swapped back into the world.
+// Each iteration swaps them once: undo, then redo, the same work. range(0):
+// 0 elastic, 1 clay; range(1): 0 the stroke's blocks, 1 every block of the
+// body (the worst case).
+void BM_UndoStroke(benchmark::State& state) {
+  RecordedStroke& r = recorded_stroke(state.range(0) == 1);
+  World<float>& w = r.world;
+  std::vector<std::uint32_t> blocks = r.sink.blocks;
+  std::vector<std::vector<std::byte>> images = r.sink.images;
+  if (state.range(1)) {
+    blocks.clear(), images.clear();
+    for (std::uint32_t blk = 0; blk < w.body(0).blocks; ++blk) {
+      blocks.push_back(blk);
+      images.emplace_back(w.block_image_bytes(0));
+      w.block_image(0, blk, images.back());
+    }
+  }
+  for (auto _ : state)
+    for (std::size_t q = 0; q < blocks.size(); ++q) w.swap_block_image(0, blocks[q], images[q]);
+  if (state.iterations() % 2) // leave the world as recorded for the next run
+    for (std::size_t q = 0; q < blocks.size(); ++q) w.swap_block_image(0, blocks[q], images[q]);
+  std::uint32_t vertices = 0;
+  for (std::uint32_t blk : blocks) vertices += w.body(0).end_of(blk) - w.body(0).begin_of(blk);
+  state.counters["blocks"] = static_cast<double>(blocks.size());
+  state.counters["vertices"] = vertices;
+  state.counters["image_bytes"] = static_cast<double>(w.block_image_bytes(0));
+  state.counters["MB_swapped"] = static_cast<double>(blocks.size() * w.block_image_bytes(0)) / 1e6;
+  state.SetLabel(std::string(state.range(0) ? "clay, " : "elastic, ") + (state.range(1) ? "every block" : "the stroke") +
+                 ", " + name(w.step_path(0)) + " path");
+}
+BENCHMARK(BM_UndoStroke)->Args({0, 0})->Args({0, 1})->Args({1, 0})->Args({1, 1})->Unit(benchmark::kMillisecond);
 
 void BM_BuildBody(benchmark::State& state) {
   const TriangleMesh mesh = make_icosphere(0.1f, static_cast<int>(state.range(0)));
