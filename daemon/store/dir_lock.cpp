@@ -35,7 +35,7 @@ DirLock::DirLock(const std::filesystem::path& dir) : file_(dir / "lock") {
     if (e != EWOULDBLOCK)
       throw StoreError(fmt::format("{}: cannot lock: {}", file_.string(), std::strerror(e)));
     const std::string pid = holder_pid(fd_.get());
-    throw StoreError(fmt::format("{}: the store is in use by another process{} (one daemon per store)", file_.string(),
+    throw StoreInUse(fmt::format("{}: the store is in use by another process{} (one daemon per store)", file_.string(),
                                  pid.empty() ? std::string() : fmt::format(" (PID {})", pid)));
   }
   const std::string pid = fmt::format("{}\n", ::getpid());

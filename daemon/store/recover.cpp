@@ -26,6 +26,29 @@ std::vector<SnapshotRow> list_snapshots(sqlite::Connection& db) {
   return rows;
 }
 
+// Every blob the snapshot refers to; false (with `why`) when one is missing
+// or does not decode: the snapshot is unusable then.
+bool load_blobs(sqlite::Connection& db, std::int64_t snapshot, Snapshot& snap, std::string& why) {
+  sqlite::Statement st(db,
+                       "SELECT r.key, b.codec, b.raw_size, b.data FROM snapshot_blob r LEFT JOIN blob b ON b.key = r.key "
+                       "WHERE r.snapshot = ?");
+  st.bind(1, snapshot);
+  while (st.step("read a snapshot's blobs")) {
+    const std::string key = st.column_text(0);
+    if (st.column_is_null(3)) {
+      why = fmt::format("blob {} is missing", key);
+      return false;
+    }
+    auto bytes = decode(st.column_blob(3), st.column_int(1), static_cast<std::uint64_t>(st.column_int(2)), why);
+    if (!bytes) {
+      why = fmt::format("blob {}: {}", key, why);
+      return false;
+    }
+    snap.blobs.emplace(key, std::move(*bytes));
+  }
+  return true;
+}
+
 // The snapshot decoded, or nullopt with `why`.
 std::optional<Snapshot> load_snapshot(sqlite::Connection& db, const SnapshotRow& row, std::string& why) {
   try {
@@ -37,7 +60,9 @@ std::optional<Snapshot> load_snapshot(sqlite::Connection& db, const SnapshotRow&
     }
     auto state = decode(st.column_blob(3), st.column_int(0), static_cast<std::uint64_t>(st.column_int(1)), why);
     if (!state) return std::nullopt;
-    return Snapshot{row.tick, std::move(*state), st.column_text(2)};
+    Snapshot snap{row.tick, std::move(*state), st.column_text(2), {}};
+    if (!load_blobs(db, row.id, snap, why)) return std::nullopt;
+    return snap;
   } catch (const std::exception& e) {  // a damaged page (SQLITE_CORRUPT), or no memory for the state
     why = e.what();
     return std::nullopt;

@@ -92,6 +92,8 @@ std::span<const std::byte> Statement::column_blob(int i) const {
   return {static_cast<const std::byte*>(p), static_cast<std::size_t>(n)};
 }
 
+bool Statement::column_is_null(int i) const { return sqlite3_column_type(stmt_, i) == SQLITE_NULL; }
+
 std::string Statement::column_text(int i) const {
   const auto* p = reinterpret_cast<const char*>(sqlite3_column_text(stmt_, i));
   return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(stmt_, i))) : std::string();

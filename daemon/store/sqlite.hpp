@@ -69,6 +69,7 @@ class Statement {
   std::int64_t column_int(int i) const;
   std::span<const std::byte> column_blob(int i) const;  // valid until the next step
   std::string column_text(int i) const;
+  bool column_is_null(int i) const;
 
  private:
   Connection& db_;

@@ -33,6 +33,17 @@ CREATE TABLE gap (               -- journal records dropped while the disk faile
   last_tick  INTEGER NOT NULL,
   records    INTEGER NOT NULL
 );
+CREATE TABLE blob (              -- immutable by key; kept while a snapshot refers to it
+  key      TEXT PRIMARY KEY,
+  codec    INTEGER NOT NULL,
+  raw_size INTEGER NOT NULL,
+  data     BLOB NOT NULL
+);
+CREATE TABLE snapshot_blob (
+  snapshot INTEGER NOT NULL,
+  key      TEXT NOT NULL
+);
+CREATE INDEX snapshot_blob_by_snapshot ON snapshot_blob (snapshot);
 )sql";
 
 // Creates the schema in a new file, or checks that an existing one is ours
@@ -102,6 +113,47 @@ Store Store::open(const std::filesystem::path& dir, const Limits& limits) {
   } catch (const sqlite::Error& e) {
     throw StoreError(e.what());
   }
+}
+
+void Store::import_file(const std::filesystem::path& dir, const std::filesystem::path& file) {
+  namespace fs = std::filesystem;
+  try {
+    files::create_directories(dir, 0750);
+    files::check_regular(file, std::uint64_t{1} << 40);
+  } catch (const files::FileError& e) {
+    throw StoreError(e.what());
+  }
+  DirLock lock(dir);
+  const fs::path copy = dir / "import.db";
+  std::error_code ec;
+  fs::remove(copy, ec);
+  if (!fs::copy_file(file, copy, ec) || ec)
+    throw StoreError(fmt::format("{}: cannot copy it into {}: {}", file.string(), dir.string(), ec.message()));
+  try {
+    sqlite::Connection db(copy, false);
+    const std::int64_t app = db.query_int("PRAGMA application_id", "read the application id");
+    const std::int64_t version = db.query_int("PRAGMA user_version", "read the schema version");
+    if (app != kApplicationId) throw StoreError(fmt::format("{}: is not a sculpt exported by sculptd", file.string()));
+    if (version != kSchemaVersion)
+      throw StoreError(fmt::format("{}: sculpt format {}, this sculptd reads {}", file.string(), version, kSchemaVersion));
+    sqlite::Statement check(db, "PRAGMA quick_check");
+    const std::string verdict = check.step("check the file") ? check.column_text(0) : std::string("no answer");
+    if (verdict != "ok") throw StoreError(fmt::format("{}: is damaged ({})", file.string(), verdict));
+  } catch (const sqlite::Error& e) {
+    fs::remove(copy, ec);
+    throw StoreError(fmt::format("{}: cannot be read as a sculpt: {}", file.string(), e.what()));
+  } catch (const StoreError&) {
+    fs::remove(copy, ec);
+    throw;
+  }
+  const fs::path db = dir / "store.db";
+  for (const char* suffix : {"", "-wal", "-shm"}) {
+    const fs::path from = db.string() + suffix, to = (dir / "previous.db").string() + suffix;
+    fs::remove(to, ec);
+    if (fs::exists(from, ec)) fs::rename(from, to, ec);
+  }
+  fs::rename(copy, db, ec);
+  if (ec) throw StoreError(fmt::format("{}: cannot put it in place: {}", db.string(), ec.message()));
 }
 
 // Runs `write` unless a recent failure says to wait; turns a disk fault into
@@ -185,21 +237,34 @@ Status Store::append(std::span<const RecordView> records) {
 // Inside a transaction: the old snapshots the new one pushes out go first,
 // so that a store at its size limit has their pages to reuse; if the insert
 // fails, the rollback brings them back.
-void Store::insert_snapshot(std::uint64_t tick, std::uint64_t raw_size, std::span<const std::byte> blob,
-                            std::string_view meta) {
+void Store::insert_snapshot(const PreparedSnapshot& s) {
   sqlite::Statement drop(db_, "DELETE FROM snapshot WHERE id NOT IN (SELECT id FROM snapshot ORDER BY id DESC LIMIT ?)");
   drop.bind(1, static_cast<std::int64_t>(limits_.keep_snapshots - 1)).run("delete old snapshots");
   sqlite::Statement ins(db_, "INSERT INTO snapshot (tick, codec, raw_size, meta, data) VALUES (?, ?, ?, ?, ?)");
-  ins.bind(1, static_cast<std::int64_t>(tick))
+  ins.bind(1, static_cast<std::int64_t>(s.tick))
       .bind(2, static_cast<std::int64_t>(limits_.codec))
-      .bind(3, static_cast<std::int64_t>(raw_size))
-      .bind(4, meta)
-      .bind(5, blob)
+      .bind(3, static_cast<std::int64_t>(s.raw_size))
+      .bind(4, s.meta)
+      .bind(5, s.data)
       .run("insert a snapshot");
-  // The journal up to the oldest snapshot kept is needed by none any more.
+  const std::int64_t id = sqlite3_last_insert_rowid(db_.handle());
+  sqlite::Statement put(db_, "INSERT OR IGNORE INTO blob (key, codec, raw_size, data) VALUES (?, ?, ?, ?)");
+  for (const PreparedSnapshot::Blob& b : s.blobs) {
+    put.bind(1, b.key)
+        .bind(2, static_cast<std::int64_t>(limits_.codec))
+        .bind(3, static_cast<std::int64_t>(b.raw_size))
+        .bind(4, b.data)
+        .run("store a blob");
+  }
+  sqlite::Statement ref(db_, "INSERT INTO snapshot_blob (snapshot, key) VALUES (?, ?)");
+  for (const std::string& key : s.refs) ref.bind(1, id).bind(2, key).run("refer to a blob");
+  // The journal up to the oldest snapshot kept is needed by none any more,
+  // nor the blobs no snapshot kept refers to.
   db_.exec("DELETE FROM journal WHERE tick <= (SELECT min(tick) FROM snapshot);"
-           "DELETE FROM gap WHERE last_tick <= (SELECT min(tick) FROM snapshot)",
-           "delete the journal the snapshots cover");
+           "DELETE FROM gap WHERE last_tick <= (SELECT min(tick) FROM snapshot);"
+           "DELETE FROM snapshot_blob WHERE snapshot NOT IN (SELECT id FROM snapshot);"
+           "DELETE FROM blob WHERE key NOT IN (SELECT key FROM snapshot_blob)",
+           "delete what the snapshots no longer need");
 }
 
 // Copies the WAL into the database and truncates it to zero bytes, so the
@@ -209,15 +274,33 @@ void Store::checkpoint() {
   sqlite3_wal_checkpoint_v2(db_.handle(), nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
 }
 
-Status Store::write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta) {
+Status Store::write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta,
+                             std::span<const BlobWrite> blobs, std::span<const std::string> refs) {
   const auto now = std::chrono::steady_clock::now();
   // Deferred without encoding anything; the same `now` decides, so an empty write never counts as done.
   if (health_.degraded && now < retry_at_) return attempt("snapshot", [] {}, now);
+  std::optional<PreparedSnapshot> prepared;
+  Status s = attempt("snapshot", [&] { prepared = prepare_snapshot(tick, state, meta, blobs, refs); });  // bad_alloc
+  return s.ok ? write_snapshot(*prepared) : s;
+}
+
+PreparedSnapshot Store::prepare_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta,
+                                         std::span<const BlobWrite> blobs, std::span<const std::string> refs) const {
+  PreparedSnapshot p;
+  p.tick = tick;
+  p.raw_size = state.size();
+  p.data = encode(state, limits_.codec, limits_.zstd_level);
+  p.meta = meta;
+  for (const BlobWrite& b : blobs) p.blobs.push_back({b.key, b.bytes.size(), encode(b.bytes, limits_.codec, limits_.zstd_level)});
+  p.refs.assign(refs.begin(), refs.end());
+  return p;
+}
+
+Status Store::write_snapshot(const PreparedSnapshot& prepared) {
   Status s = attempt("snapshot", [&] {
-    const std::vector<std::byte> blob = encode(state, limits_.codec, limits_.zstd_level);
     sqlite::Transaction tx(db_);
     write_journal({});
-    insert_snapshot(tick, state.size(), blob, meta);
+    insert_snapshot(prepared);
     tx.commit();
   });
   if (s.ok) {
@@ -228,5 +311,29 @@ Status Store::write_snapshot(std::uint64_t tick, std::span<const std::byte> stat
 }
 
 Health Store::health() const { return health_; }
+
+void Store::clear() {
+  try {
+    sqlite::Transaction tx(db_);
+    db_.exec("DELETE FROM snapshot; DELETE FROM journal; DELETE FROM gap; DELETE FROM snapshot_blob; DELETE FROM blob",
+             "clear the store");
+    tx.commit();
+  } catch (const sqlite::Error& e) {
+    throw StoreError(e.what());
+  }
+  pending_.clear();
+  pending_bytes_ = 0;
+  gap_.reset();
+  checkpoint();
+}
+
+void Store::export_copy(const std::filesystem::path& file) {
+  try {
+    sqlite::Statement st(db_, "VACUUM INTO ?");
+    st.bind(1, file.string()).run("copy the store");
+  } catch (const sqlite::Error& e) {
+    throw StoreError(fmt::format("{}: cannot write a copy to {}: {}", db_.file().string(), file.string(), e.what()));
+  }
+}
 
 }  // namespace sculpt::store

@@ -38,6 +38,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -55,6 +56,11 @@ namespace sculpt::store {
 class StoreError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+// open() failed because another process holds the store.
+class StoreInUse : public StoreError {
+ public:
+  using StoreError::StoreError;
 };
 
 struct Limits {
@@ -77,10 +83,34 @@ struct Record {
   bool operator==(const Record&) const = default;
 };
 
+// A value a snapshot refers to by key, written once and shared by every
+// snapshot that refers to it (a scene's files, a stroke's images): kept
+// while any kept snapshot does. Encoded like a snapshot.
+struct BlobWrite {
+  std::string key;
+  std::span<const std::byte> bytes;
+};
+
+// A snapshot encoded and ready to write (Store::prepare_snapshot): the slow
+// part, compression, done without the store.
+struct PreparedSnapshot {
+  struct Blob {
+    std::string key;
+    std::uint64_t raw_size = 0;
+    std::vector<std::byte> data;
+  };
+  std::uint64_t tick = 0, raw_size = 0;
+  std::vector<std::byte> data;
+  std::string meta;
+  std::vector<Blob> blobs;
+  std::vector<std::string> refs;
+};
+
 struct Snapshot {
   std::uint64_t tick = 0;
   std::vector<std::byte> state;
   std::string meta;
+  std::map<std::string, std::vector<std::byte>> blobs;  // what it refers to (those that decode)
 };
 
 struct Status {
@@ -120,9 +150,31 @@ class Store {
   // open it.
   static Store open(const std::filesystem::path& dir, const Limits& limits = {});
 
-  Status write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta = {});
+  // Makes `file` (a copy written by export_copy) the store of `dir`, under
+  // the directory's lock; the store it replaces is kept as "previous.db".
+  // Throws StoreError naming the file: unreadable, not a store, a newer
+  // schema, damaged (quick_check), or the store is in use.
+  static void import_file(const std::filesystem::path& dir, const std::filesystem::path& file);
+
+  // `blobs`: new ones (a key already stored is kept as it is); `refs`: the
+  // keys of every blob this snapshot needs, new or already stored.
+  Status write_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta = {},
+                        std::span<const BlobWrite> blobs = {}, std::span<const std::string> refs = {});
+  // The same in two steps: prepare_snapshot encodes (no disk; it reads only
+  // the limits, so another thread may call it while one uses the store),
+  // write_snapshot(prepared) writes.
+  PreparedSnapshot prepare_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta,
+                                    std::span<const BlobWrite> blobs, std::span<const std::string> refs) const;
+  Status write_snapshot(const PreparedSnapshot& prepared);
   Status append(std::span<const RecordView> records);  // one transaction
   Recovery recover();
+  // Deletes every snapshot, journal record and blob: a sculpt starts anew
+  // (its ticks start again from 0). Throws StoreError.
+  void clear();
+
+  // A consistent copy of the whole store as one database file (`VACUUM
+  // INTO`): what `sculptctl export` hands out. Throws StoreError.
+  void export_copy(const std::filesystem::path& file);
 
   Health health() const;
   Usage usage();
@@ -140,8 +192,7 @@ class Store {
   void keep_pending(std::span<const RecordView> records);
   void write_journal(std::span<const RecordView> records);
   void written();
-  void insert_snapshot(std::uint64_t tick, std::uint64_t raw_size, std::span<const std::byte> blob,
-                       std::string_view meta);
+  void insert_snapshot(const PreparedSnapshot& s);
   void checkpoint();
 
   struct Gap {
