@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <climits>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "sim/state_bytes.hpp"
 
 namespace sculpt::input {
 
@@ -36,12 +40,38 @@ std::size_t ControlMapper::drain(concurrency::SpscRing<InputMessage>& ring, std:
   std::size_t n = 0;
   while (const InputMessage* m = ring.peek()) {
     if (m->at_tick != 0 && m->at_tick > tick) break;
-    if (m->at_tick != 0 && m->at_tick < tick) ++late_;
-    apply(*m);
+    take(*m, tick);
     ring.pop();
     ++n;
   }
   return n;
+}
+
+void ControlMapper::take(const InputMessage& m, std::uint64_t tick) {
+  if (m.at_tick != 0 && m.at_tick < tick) ++late_;
+  apply(m);
+}
+
+std::vector<std::byte> ControlMapper::state() const {
+  std::vector<std::byte> out;
+  sim::StateWriter w(out);
+  w.value(static_cast<std::uint64_t>(tools_));
+  w.value(devices_), w.value(controls_), w.value(late_), w.value(undo_presses_), w.value(redo_presses_);
+  return out;
+}
+
+void ControlMapper::restore_state(std::span<const std::byte> bytes) {
+  for (const bool dry : {true, false}) {
+    sim::StateReader r(bytes, dry);
+    std::uint64_t tools = 0;
+    r.value(tools, "mapper: tool count");
+    if (tools != tools_)
+      throw std::invalid_argument("mapper state: " + std::to_string(tools) + " tools, this scene has " +
+                                  std::to_string(tools_));
+    r.field(devices_, "mapper: devices"), r.field(controls_, "mapper: controls"), r.field(late_, "mapper: late");
+    r.field(undo_presses_, "mapper: undo presses"), r.field(redo_presses_, "mapper: redo presses");
+    if (!r.done()) throw std::invalid_argument("mapper state: bytes left over");
+  }
 }
 
 void ControlMapper::apply_event(DeviceState& d, const InputEvent& e) {
@@ -62,6 +92,8 @@ void ControlMapper::apply_event(DeviceState& d, const InputEvent& e) {
       const bool press = down && !d.held[i];
       d.held[i] = down;
       const std::uint8_t t = b.buttons[i].tool;
+      if (press && b.buttons[i].action == ButtonAction::undo) ++undo_presses_;
+      if (press && b.buttons[i].action == ButtonAction::redo) ++redo_presses_;
       if (!press || t >= tools_) continue;
       switch (b.buttons[i].action) {
         case ButtonAction::shape: ++controls_[t].shape_toggles; break;

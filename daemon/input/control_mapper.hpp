@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "concurrency/spsc_ring.hpp"
 #include "input/input_message.hpp"
@@ -31,11 +32,22 @@ class ControlMapper {
   // (at_tick == 0 or at_tick <= tick), in order; stops at the first one that
   // is not due yet. Returns how many were applied.
   std::size_t drain(concurrency::SpscRing<InputMessage>& ring, std::uint64_t tick);
+  // One message due at `tick` (what drain does with each).
+  void take(const InputMessage& message, std::uint64_t tick);
   // Scheduled messages (at_tick != 0) applied after their tick: their
   // producer fell behind. A replay with any is not reproducible.
   std::uint64_t late() const { return late_; }
 
   std::span<const ToolControl> controls() const { return {controls_.data(), tools_}; }
+  // Undo and redo presses so far, on any device (monotonic).
+  std::uint32_t undo_presses() const { return undo_presses_; }
+  std::uint32_t redo_presses() const { return redo_presses_; }
+
+  // Everything later messages build on, as bytes (allocates): a mapper of
+  // the same tool count continues from them exactly. restore_state throws
+  // std::invalid_argument naming what does not match, changing nothing.
+  std::vector<std::byte> state() const;
+  void restore_state(std::span<const std::byte> bytes);
   std::size_t tools() const { return tools_; }
   bool attached(std::uint8_t slot) const { return slot < kMaxDevices && devices_[slot].attached; }
   // The binding of a slot (for the haptics' stick plane), valid while attached.
@@ -56,6 +68,7 @@ class ControlMapper {
   std::array<DeviceState, kMaxDevices> devices_{};
   std::array<ToolControl, kMaxTools> controls_{};
   std::uint64_t late_ = 0;
+  std::uint32_t undo_presses_ = 0, redo_presses_ = 0;
 };
 
 }  // namespace sculpt::input

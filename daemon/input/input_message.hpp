@@ -47,6 +47,8 @@ enum class ButtonAction : std::uint8_t {
   shrink,       // press: one size step down
   depth_plus,   // held: depth component +1 (pads without an analog depth axis)
   depth_minus,  // held: depth component -1
+  undo,         // press: undo the last stroke (any tool's)
+  redo,         // press: redo the last undone stroke
 };
 
 struct ButtonBinding {

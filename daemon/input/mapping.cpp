@@ -13,7 +13,9 @@ namespace {
 
 constexpr std::array<std::string_view, 3> kStickNames{"left", "right", "main"};
 constexpr std::array<std::string_view, kRoleCount> kRoleNames{
-    "x", "y", "depth", "grab", "shape", "grow", "shrink", "depth_plus", "depth_minus"};
+    "x", "y", "depth", "grab", "shape", "grow", "shrink", "depth_plus", "depth_minus", "undo", "redo"};
+static_assert(static_cast<int>(Role::redo) - static_cast<int>(Role::grab) == static_cast<int>(ButtonAction::redo),
+              "a button role's ButtonAction is its offset from grab");
 
 bool is_axis_role(Role r) { return r == Role::x || r == Role::y || r == Role::depth; }
 
@@ -40,6 +42,9 @@ StickMapping gamepad_stick(bool left) {
     set(s, Role::grow, key(BTN_NORTH));
     set(s, Role::shrink, key(BTN_WEST));
   }
+  // Either hand's: the D-pad's free pair, back and forth through the history.
+  set(s, Role::undo, key(BTN_DPAD_LEFT));
+  set(s, Role::redo, key(BTN_DPAD_RIGHT));
   return s;
 }
 
@@ -59,6 +64,8 @@ StickMapping joystick_stick(const DeviceInfo& info) {
   set(s, Role::shape, key(classic ? BTN_THUMB : BTN_EAST));
   set(s, Role::grow, key(classic ? BTN_THUMB2 : BTN_NORTH));
   set(s, Role::shrink, key(classic ? BTN_TOP : BTN_WEST));
+  set(s, Role::undo, key(classic ? BTN_BASE : BTN_SELECT));
+  set(s, Role::redo, key(classic ? BTN_BASE2 : BTN_START));
   return s;
 }
 

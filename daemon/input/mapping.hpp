@@ -29,8 +29,9 @@ namespace sculpt::input {
 enum class Stick : std::uint8_t { left, right, main };
 
 // What a control does for the tool of a stick.
-enum class Role : std::uint8_t { x, y, depth, grab, shape, grow, shrink, depth_plus, depth_minus };
-inline constexpr std::size_t kRoleCount = 9;
+// grab..redo in ButtonAction's order.
+enum class Role : std::uint8_t { x, y, depth, grab, shape, grow, shrink, depth_plus, depth_minus, undo, redo };
+inline constexpr std::size_t kRoleCount = 11;
 
 std::string_view to_string(Stick stick);
 std::string_view to_string(Role role);

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/state_bytes.hpp"
+
 namespace sculpt::loop {
 namespace {
 
@@ -112,6 +114,21 @@ Box tool_bounds(const Box& meshes, std::span<const ToolSpec> tools, double margi
     }
   }
   return b;
+}
+
+std::vector<std::byte> ToolDriver::state() const {
+  std::vector<std::byte> out;
+  sim::StateWriter w(out);
+  w.array(state_);
+  return out;
+}
+
+void ToolDriver::restore_state(std::span<const std::byte> bytes) {
+  for (const bool dry : {true, false}) {
+    sim::StateReader r(bytes, dry);
+    r.array(state_, "tool driver: tools");
+    if (!r.done()) throw std::invalid_argument("tool driver state: bytes left over");
+  }
 }
 
 }  // namespace sculpt::loop

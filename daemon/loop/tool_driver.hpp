@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -75,6 +76,13 @@ class ToolDriver {
   // The current pose of tool t (also what the last update wrote).
   const sim::Tool& tool(std::size_t t) const { return state_[t].tool; }
   const DriverLimits& limits() const { return limits_; }
+
+  // The tools' poses and what the driver remembers of their controls, as
+  // bytes (allocates): a driver made from the same specs continues from
+  // them exactly. restore_state throws std::invalid_argument naming what
+  // does not match, changing nothing.
+  std::vector<std::byte> state() const;
+  void restore_state(std::span<const std::byte> bytes);
 
  private:
   struct State {

@@ -80,6 +80,15 @@ class StateReader {
   void array(std::vector<T>& a, const char* what) { array(std::span<T>(a), what); }
   bool done() const { return at_ == in_.size(); }
   bool dry() const { return dry_; }
+  std::size_t left() const { return in_.size() - at_; }
+  // n bytes as they are (a reader's own variable-length fields).
+  void raw(void* p, std::size_t n, const char* what) { bytes(p, n, what, true); }
+  // The next n bytes, in place.
+  std::span<const std::byte> take(std::size_t n, const char* what) {
+    if (in_.size() - at_ < n) throw std::invalid_argument(std::string("state: truncated in ") + what);
+    at_ += n;
+    return in_.subspan(at_ - n, n);
+  }
 
  private:
   void bytes(void* p, std::size_t n, const char* what, bool write) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input_test_util.hpp"
 
@@ -217,6 +218,77 @@ TEST(EventCodes, NamesBothWays) {
   EXPECT_EQ(event_code(EV_KEY, "BTN_SOUTH"), BTN_SOUTH);
   EXPECT_FALSE(event_code(EV_ABS, "BTN_SOUTH").has_value());
   EXPECT_EQ(event_code_name(EV_ABS, ABS_X), "ABS_X");
+}
+
+}  // namespace
+}  // namespace sculpt::input
+
+namespace sculpt::input {
+namespace {
+
+DeviceInfo pad_with_dpad() {
+  DeviceInfo pad = testing::gamepad();
+  pad.buttons.insert(pad.buttons.end(), {BTN_DPAD_UP, BTN_DPAD_DOWN, BTN_DPAD_LEFT, BTN_DPAD_RIGHT});
+  std::sort(pad.buttons.begin(), pad.buttons.end());
+  return pad;
+}
+
+InputMessage press(std::uint16_t code, std::int32_t value) {
+  InputFrame f;
+  f.push({EV_KEY, code, value});
+  f.push({EV_SYN, SYN_REPORT, 0});
+  return InputMessage::of_frame(f);
+}
+
+TEST(DefaultMapping, TheDpadsLeftAndRightUndoAndRedo) {
+  const DeviceInfo pad = pad_with_dpad();
+  const DeviceBinding b = make_binding(pad, default_mapping(pad), {{0, Stick::left}, {1, Stick::right}});
+  ASSERT_NE(find_button(b, BTN_DPAD_LEFT), nullptr);
+  EXPECT_EQ(find_button(b, BTN_DPAD_LEFT)->action, ButtonAction::undo);
+  ASSERT_NE(find_button(b, BTN_DPAD_RIGHT), nullptr);
+  EXPECT_EQ(find_button(b, BTN_DPAD_RIGHT)->action, ButtonAction::redo);
+  const MappingConfig cfg = parse("[[device]]\nname = \"Test\"\nleft_undo = \"BTN_START\"\nright_undo = \"BTN_START\"\n");
+  const DeviceBinding o = make_binding(pad, resolve_mapping(pad, cfg), {{0, Stick::left}, {1, Stick::right}});
+  ASSERT_NE(find_button(o, BTN_START), nullptr);
+  EXPECT_EQ(find_button(o, BTN_START)->action, ButtonAction::undo);
+}
+
+TEST(ControlMapper, CountsUndoAndRedoPressesOfAnyTool) {
+  const DeviceInfo pad = pad_with_dpad();
+  ControlMapper m(2);
+  m.apply(InputMessage::attach(0, make_binding(pad, default_mapping(pad), {{0, Stick::left}, {1, Stick::right}})));
+  m.apply(press(BTN_DPAD_LEFT, 1));
+  m.apply(press(BTN_DPAD_LEFT, 2));  // autorepeat: not a press
+  m.apply(press(BTN_DPAD_LEFT, 0));
+  m.apply(press(BTN_DPAD_LEFT, 1));
+  m.apply(press(BTN_DPAD_RIGHT, 1));
+  EXPECT_EQ(m.undo_presses(), 2u);
+  EXPECT_EQ(m.redo_presses(), 1u);
+}
+
+TEST(ControlMapper, ItsStateComesBackExactly) {
+  const DeviceInfo pad = pad_with_dpad();
+  ControlMapper m(2);
+  m.apply(InputMessage::attach(3, make_binding(pad, default_mapping(pad), {{0, Stick::left}})));
+  InputFrame f;
+  f.push({EV_ABS, ABS_X, 20000});
+  f.push({EV_KEY, BTN_THUMBL, 1});
+  m.apply(InputMessage::of_frame([&] {
+    f.slot = 3;
+    return f;
+  }()));
+  m.apply(press(BTN_DPAD_LEFT, 1));
+  ControlMapper back(2);
+  back.restore_state(m.state());
+  EXPECT_EQ(back.state(), m.state());
+  EXPECT_TRUE(back.attached(3));
+  EXPECT_EQ(back.controls()[0].stick, m.controls()[0].stick);
+  EXPECT_TRUE(back.controls()[0].grab);
+  ControlMapper other(3);
+  EXPECT_THROW(other.restore_state(m.state()), std::invalid_argument);
+  const std::vector<std::byte> whole = m.state();
+  const std::vector<std::byte> truncated(whole.begin(), whole.end() - 1);
+  EXPECT_THROW(back.restore_state(truncated), std::invalid_argument);
 }
 
 }  // namespace

@@ -193,5 +193,22 @@ TEST(ToolBounds, SceneBoxGrownByTheMarginAndHoldingTheStarts) {
   EXPECT_EQ(b.hi[1], 5.0);
 }
 
+TEST(ToolDriver, ItsStateComesBackExactly) {
+  ToolDriver d({spec(), spec()}, limits(), kRate);
+  std::vector<sim::Tool> out(2);
+  const DriveInput in[2] = {connected(1, 0.5f, 0), connected(0, 0, -1)};
+  for (int i = 0; i < 100; ++i) d.update(in, out);
+  ToolDriver back({spec(), spec()}, limits(), kRate);
+  back.restore_state(d.state());
+  EXPECT_EQ(back.state(), d.state());
+  std::vector<sim::Tool> a(2), b(2);
+  d.update(in, a);
+  back.update(in, b);
+  EXPECT_EQ(a[0].position, b[0].position);
+  EXPECT_EQ(a[1].position, b[1].position);
+  ToolDriver one({spec()}, limits(), kRate);
+  EXPECT_THROW(one.restore_state(d.state()), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace sculpt::loop
