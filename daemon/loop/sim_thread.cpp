@@ -110,11 +110,11 @@ void SimThread::run() {
   prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
   SimProbe probe(stats_);
   std::int64_t deadline = monotonic_ns() + period_ns_;
-  std::uint64_t tick = world_.tick() + options_.first_tick;
+  std::uint64_t tick = options_.first_tick;
   while (!stop_.load(std::memory_order_acquire)) {
     const std::int64_t woke = wait_for(deadline);
     probe.woke(deadline, woke);
-    take_commands();
+    take_commands(tick);
     if (stats_.paused.load(std::memory_order_relaxed)) {
       probe.idled();
       deadline = next_deadline(deadline, monotonic_ns(), period_ns_);
@@ -128,7 +128,7 @@ void SimThread::run() {
     deadline = next;
     if (options_.max_ticks != 0 && stats_.ticks.load(std::memory_order_relaxed) >= options_.max_ticks) break;
   }
-  take_commands();  // a pause asked just before the stop is the state a swap carries over
+  take_commands(tick);  // a pause asked just before the stop is the state a swap carries over
   finished_.store(true, std::memory_order_release);
 }
 
@@ -143,9 +143,11 @@ std::int64_t SimThread::wait_for(std::int64_t deadline) {
   return now;
 }
 
-void SimThread::take_commands() {
+void SimThread::take_commands(std::uint64_t tick) {
   while (const std::uint8_t* c = commands_.peek()) {
-    stats_.paused.store(*c != 0, std::memory_order_release);
+    const bool paused = *c != 0;
+    if (paused != stats_.paused.load(std::memory_order_relaxed)) stages_.paused_changed(tick, paused);
+    stats_.paused.store(paused, std::memory_order_release);
     commands_.pop();
   }
 }

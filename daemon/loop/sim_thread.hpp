@@ -27,6 +27,8 @@ class TickStages {
   virtual void input(std::uint64_t tick, std::span<sim::Tool> tools) = 0;
   // Hand the tick's results on (feedback to the haptics, changes to viewers).
   virtual void publish(std::uint64_t tick, const sim::World<float>& world) = 0;
+  // The loop paused (or resumed) before running `tick`.
+  virtual void paused_changed(std::uint64_t /*tick*/, bool /*paused*/) {}
 };
 
 struct SimThreadOptions {
@@ -42,9 +44,10 @@ struct SimThreadOptions {
   // Spin only once SCHED_FIFO is granted: at normal priority the thread can
   // lose its CPU mid-spin anyway, so the spin would cost CPU for little.
   bool wake_early_needs_fifo = false;
-  // The tick number of the world's first tick here (a scene swapped in mid-run
-  // continues the old timeline: queued inputs and viewers' sequences go on).
-  // The stats' tick count starts there too.
+  // The tick number of the thread's first tick (a scene swapped in mid-run
+  // continues the old timeline: queued inputs and viewers' sequences go on;
+  // a recovered world continues its own). The stats' tick count starts
+  // there too.
   std::uint64_t first_tick = 0;
 };
 
@@ -93,8 +96,8 @@ class SimThread {
   void run();
   // Sleeps (and spins, when asked) until `deadline`; the time it woke.
   std::int64_t wait_for(std::int64_t deadline);
-  // Pause and resume requests, applied at the tick boundary.
-  void take_commands();
+  // Pause and resume requests, applied at the tick boundary before `tick`.
+  void take_commands(std::uint64_t tick);
   // One tick's work: inputs due → tool poses, World::step, publish.
   TickTiming run_tick(std::uint64_t tick, std::int64_t deadline, std::int64_t woke);
 

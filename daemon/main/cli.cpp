@@ -35,6 +35,13 @@ void add_options(CLI::App& app, CliOptions& o) {
   optional_option(app, "--stats-json", o.stats_json, "write the stats as JSON to FILE at exit", "FILE");
   optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit", "FILE");
   optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)", "LEVEL");
+  optional_option(app, "--state-dir", o.state_dir,
+                  "where the sculpt is saved (default: $STATE_DIRECTORY, $XDG_STATE_HOME/sculptd, "
+                  "~/.local/state/sculptd); also saves a replay", "DIR");
+  app.add_flag("--fresh", o.fresh, "start the scene anew instead of resuming the saved sculpt (which is replaced)");
+  optional_option(app, "--open", o.open, "start from a sculpt exported with `sculptctl export` (replaces the saved one)",
+                  "FILE.sculpt");
+  app.add_flag("--no-store", o.no_store, "no autosave, history on disk or recovery");
   app.add_flag("--check", o.check, "check the config and the scene (and probe its stability), then exit");
 }
 
@@ -68,6 +75,20 @@ void CliOptions::apply(DaemonConfig& c) const {
     c.duration_s = *duration_s;
   }
   if (realtime) c.realtime = true;
+  if (state_dir) {
+    if (state_dir->empty()) throw ConfigError("--state-dir: must name a directory");
+    c.store.dir = *state_dir;
+    c.store.enabled = true;
+  }
+  if (no_store && (state_dir || fresh || open)) throw ConfigError("--no-store: cannot go with --state-dir, --fresh or --open");
+  if (fresh && open) throw ConfigError("--fresh and --open: choose one");
+  if (no_store) c.store.enabled = false;
+  if (fresh) c.store.fresh = true;
+  if (open) {
+    if (open->empty()) throw ConfigError("--open: must name a .sculpt file");
+    c.store.open = *open;
+    c.store.enabled = true;
+  }
   if (stats_json) c.stats_json = *stats_json;
   if (hash_out) c.hash_out = *hash_out;
   if (log_level && !log::parse_level(*log_level, c.log_level))

@@ -23,6 +23,8 @@ struct CliOptions {
   std::optional<std::string> scene, socket, input, input_clock, stats_json, hash_out, log_level;
   std::optional<double> rate_hz, duration_s, input_delay_ms;
   bool realtime = false;
+  std::optional<std::string> state_dir, open;
+  bool fresh = false, no_store = false;
 
   // Applies the flags given to `config`; throws ConfigError naming the flag.
   void apply(DaemonConfig& config) const;

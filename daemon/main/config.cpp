@@ -137,6 +137,16 @@ void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("max_scale", c.max_scale, 1.0, 1000.0);
 }
 
+void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {
+  check_keys(file, t, "store", {"enabled", "dir", "snapshot_interval_s", "max_mb", "history_mb"});
+  const Reader r{file, t, "store"};
+  r.get("enabled", c.store.enabled);
+  r.get("dir", c.store.dir);
+  r.get("snapshot_interval_s", c.store.snapshot_interval_s, 1.0, 86400.0);
+  r.get("max_mb", c.store.max_mb, 16.0, 1048576.0);
+  r.get("history_mb", c.store.history_mb, 0.0, 1048576.0);
+}
+
 void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "haptics",
              {"enabled", "poll_interval_ms", "min_upload_interval_ms", "gain", "constant", "rumble_on_onset",
@@ -197,10 +207,11 @@ DaemonConfig parse_config(std::string_view text, const std::filesystem::path& fi
   }
   DaemonConfig c;
   c.file = file;
-  check_keys(file, root, "", {"daemon", "tools", "haptics", "input", "device"});
+  check_keys(file, root, "", {"daemon", "tools", "haptics", "store", "input", "device"});
   if (const toml::table* t = sub_table(file, root, "daemon")) read_daemon(file, *t, c);
   if (const toml::table* t = sub_table(file, root, "tools")) read_tools(file, *t, c);
   if (const toml::table* t = sub_table(file, root, "haptics")) read_haptics(file, *t, c);
+  if (const toml::table* t = sub_table(file, root, "store")) read_store(file, *t, c);
   // The input module reads its own keys ([input], [[device]]) from the root.
   c.mapping_table = std::move(root);
   return c;

@@ -40,6 +40,20 @@ std::string to_string(const InputSpec& spec);
 
 enum class InputClock { arrival, device };
 
+// [store]: autosave, history and recovery (main/keeper.hpp, docs/store.md).
+struct StoreConfig {
+  bool enabled = true;
+  // "": $STATE_DIRECTORY (systemd's StateDirectory=), else
+  // $XDG_STATE_HOME/sculptd, else ~/.local/state/sculptd.
+  std::string dir;
+  double snapshot_interval_s = 30.0;
+  double max_mb = 1024.0;      // the store's database, at most
+  double history_mb = 256.0;   // undo history in memory, at most
+  // The command line's, for this start only.
+  bool fresh = false;          // --fresh: do not resume the saved sculpt
+  std::string open;            // --open FILE.sculpt: start from it
+};
+
 struct DaemonConfig {
   std::filesystem::path file;           // what was read ("" when only defaults)
   // [daemon]
@@ -66,6 +80,8 @@ struct DaemonConfig {
   double max_scale = 4.0;
   // [haptics]
   haptics::HapticsSettings haptics;
+  // [store]
+  StoreConfig store;
   // The whole file: the input module reads [input] and [[device]] from it (input::parse_mapping).
   toml::table mapping_table;
 };

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "loop/stats_json.hpp"
+#include "main/scene_bundle.hpp"
 
 namespace sculpt::daemon {
 
@@ -28,28 +29,67 @@ kj::Promise<std::string> ControlDesk::load_scene(const std::string& path) {
   if (path.empty()) return std::string("the scene path is empty");
   if (path != "builtin:default" && !std::filesystem::path(path).is_absolute())
     return "scene path must be absolute (the daemon's working directory is not yours): " + path;
-  return load_([path] { return scene::load_scene(path); }, "load scene");
+  return load_(
+      [path] {
+        auto bundle = std::make_shared<SceneBundle>(read_bundle(path, {}));
+        return SceneSource{load_bundle(*bundle), std::move(bundle)};
+      },
+      "load scene");
 }
 
 kj::Promise<std::string> ControlDesk::reset() {
   // The scene as loaded, again (meshes keep their loaded shapes in it),
   // copied on the worker: only a swap changes the installed scene, and none
   // runs while a load does.
-  return load_([this] { return sims_.scene(); }, "reset");
+  return load_([this] { return SceneSource{sims_.scene(), std::make_shared<SceneBundle>(*sims_.bundle())}; }, "reset");
 }
 
-kj::Promise<server::EditOutcome> ControlDesk::undo(std::uint32_t) {
-  return server::EditOutcome{"undo is not available yet"};
+namespace {
+constexpr const char* kNoStore = "the daemon keeps no store (--no-store, or a replay without --state-dir): no history";
+}  // namespace
+
+kj::Promise<server::EditOutcome> ControlDesk::edit(bool undo, std::uint32_t count) {
+  if (!keeper_) return server::EditOutcome{kNoStore};
+  // A paused loop runs no tick, and stroke images go into the world between ticks.
+  if (sims_.paused()) return server::EditOutcome{std::string("the sculpt is paused: resume it to ") + (undo ? "undo" : "redo")};
+  return (undo ? keeper_->undo(count) : keeper_->redo(count)).then([](EditResult r) {
+    return server::EditOutcome{std::move(r.error), r.done, r.tick};
+  });
 }
 
-kj::Promise<server::EditOutcome> ControlDesk::redo(std::uint32_t) {
-  return server::EditOutcome{"redo is not available yet"};
-}
+kj::Promise<server::EditOutcome> ControlDesk::undo(std::uint32_t count) { return edit(true, count); }
+kj::Promise<server::EditOutcome> ControlDesk::redo(std::uint32_t count) { return edit(false, count); }
 
-server::History ControlDesk::history() { return {}; }
+server::History ControlDesk::history() {
+  server::History h;
+  if (!keeper_) return h;
+  const HistoryInfo info = keeper_->history();
+  h.budget_bytes = info.budget;
+  h.used_bytes = info.used;
+  h.dropped = info.dropped;
+  h.entries.reserve(info.strokes.size());
+  for (const StrokeInfo& s : info.strokes) {
+    server::HistoryEntry e;
+    e.number = s.number;
+    e.mesh = s.body;
+    e.mesh_name = s.mesh_name;
+    for (std::uint32_t t = 0; t < 64; ++t)
+      if ((s.tools >> t) & 1u) e.tools.push_back(t);
+    e.first_tick = s.first_tick;
+    e.end_tick = s.end_tick;
+    e.vertices = s.vertices;
+    e.bytes = s.bytes;
+    e.undone = s.undone;
+    h.entries.push_back(std::move(e));
+  }
+  return h;
+}
 
 kj::Promise<server::ExportOutcome> ControlDesk::export_sculpt() {
-  return server::ExportOutcome{"export is not available yet"};
+  if (!keeper_) return server::ExportOutcome{kNoStore};
+  return keeper_->export_sculpt().then([](ExportResult r) {
+    return server::ExportOutcome{std::move(r.error), r.fd, r.bytes};
+  });
 }
 
 }  // namespace sculpt::daemon

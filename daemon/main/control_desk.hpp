@@ -15,6 +15,7 @@
 #include "haptics/haptics_thread.hpp"
 #include "main/device_hub.hpp"
 #include "main/input_source.hpp"
+#include "main/keeper.hpp"
 #include "main/sim_host.hpp"
 #include "scene/scene.hpp"
 #include "server/daemon_control.hpp"
@@ -24,7 +25,7 @@ namespace sculpt::daemon {
 class ControlDesk final : public server::DaemonControl {
  public:
   // Builds read()'s scene and swaps it in; resolves to "" or the error.
-  using Load = std::function<kj::Promise<std::string>(std::function<scene::Scene()> read, const char* what)>;
+  using Load = std::function<kj::Promise<std::string>(std::function<SceneSource()> read, const char* what)>;
 
   ControlDesk(SimHost& sims, DeviceHub& hub, Load load) : sims_(sims), hub_(hub), load_(std::move(load)) {}
 
@@ -32,6 +33,7 @@ class ControlDesk final : public server::DaemonControl {
   void set_input(const InputSource* input) { input_ = input; }
   void set_haptics(const haptics::HapticsThread* haptics) { haptics_ = haptics; }
   void set_started(std::chrono::steady_clock::time_point started) { started_ = started; }
+  void set_keeper(Keeper* keeper) { keeper_ = keeper; }
 
   // Devices attached now (or recorded), for the status and the stats.
   std::uint64_t device_count() const { return input_ ? input_->count() : 0; }
@@ -43,7 +45,7 @@ class ControlDesk final : public server::DaemonControl {
   kj::Promise<std::string> reset() override;
   std::string set_paused(bool paused) override { return sims_.set_paused(paused); }
   bool paused_now() override { return sims_.paused(); }
-  // Not implemented yet: each answers the error "not available yet".
+  // The keeper's (none with --no-store: each says so).
   kj::Promise<server::EditOutcome> undo(std::uint32_t count) override;
   kj::Promise<server::EditOutcome> redo(std::uint32_t count) override;
   server::History history() override;
@@ -55,6 +57,8 @@ class ControlDesk final : public server::DaemonControl {
   Load load_;
   const InputSource* input_ = nullptr;
   const haptics::HapticsThread* haptics_ = nullptr;
+  Keeper* keeper_ = nullptr;
+  kj::Promise<server::EditOutcome> edit(bool undo, std::uint32_t count);
   std::chrono::steady_clock::time_point started_{};
 };
 

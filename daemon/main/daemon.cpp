@@ -2,11 +2,13 @@
 
 #include <chrono>
 #include <csignal>
+#include <ctime>
 #include <functional>
 #include <memory>
 #include <string>
 #include <utility>
 
+#include <fmt/chrono.h>
 #include <kj/async-io.h>
 #include <kj/async-unix.h>
 #include <kj/debug.h>
@@ -18,14 +20,18 @@
 #include "input/mapping.hpp"
 #include "loop/compaction.hpp"
 #include "loop/preemption.hpp"
+#include "main/autosave.hpp"
 #include "main/blowup_log.hpp"
 #include "main/config_reload.hpp"
 #include "main/control_desk.hpp"
 #include "main/device_hub.hpp"
 #include "main/input_source.hpp"
+#include "main/journal.hpp"
+#include "main/keeper.hpp"
 #include "main/log.hpp"
 #include "main/notify.hpp"
 #include "main/run_report.hpp"
+#include "main/scene_bundle.hpp"
 #include "main/scene_loader.hpp"
 #include "main/sim_host.hpp"
 #include "main/watchdog.hpp"
@@ -50,10 +56,15 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
         io_(io),
         sims_(cfg_),
         hub_(cfg_.input_clock == InputClock::device, cfg_.input_delay_ms, [this] { return sims_.current_tick(); }),
-        desk_(sims_, hub_, [this](std::function<scene::Scene()> read, const char* what) {
+        desk_(sims_, hub_, [this](std::function<SceneSource()> read, const char* what) {
           return loader_->load(std::move(read), simulation_settings(cfg_), what);
         }) {}
-  ~Daemon() noexcept { stop_threads(); }
+  ~Daemon() noexcept {
+    stop_threads();
+    keeper_.reset();
+    std::error_code ec;
+    if (!memory_store_.empty()) std::filesystem::remove_all(memory_store_, ec);
+  }
 
   int run() {
     auto exit = kj::newPromiseAndFulfiller<int>();
@@ -90,9 +101,8 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
         [this](Simulation next, const char* what) { swap_in(std::move(next), what); });
     reload_ = std::make_unique<ConfigReload>(opts_.config_path, opts_.config_optional, opts_.overrides, *tasks_,
                                              stopping_, [this](DaemonConfig next) { apply_config(std::move(next)); });
-    scene::Scene first = scene::load_scene(cfg_.scene);
-    log_scene_warnings(first);
-    sims_.install(build_simulation(std::move(first), simulation_settings(cfg_), *board_));
+    open_store();
+    const StartPoint start = install_first_scene();
     blowups_.reset(mesh_names(sims_.scene()));
     log::info("scene {}: {} meshes, {} vertices, {} tools; {} Hz", sims_.scene().file.string(),
               sims_.scene().meshes.size(), vertices_of(sims_.scene()), sims_.tools(), sims_.rate());
@@ -103,14 +113,16 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     haptics_->start();
     hub_.set_haptics(haptics_.get());
     desk_.set_haptics(haptics_.get());
+    desk_.set_keeper(keeper_.get());
 
     input_ = std::make_unique<InputSource>(cfg_, sims_.rate(), hub_, io_.unixEventPort);
     input_->pump(sims_.stages().ring());
     desk_.set_input(input_.get());
 
     start_server();
+    if (keeper_) keeper_->start();
     // The sim thread. READY waits for its first tick (housekeep()).
-    sims_.start(0, false);
+    sims_.start(start.tick, start.paused);
     // Once per process, not at every scene swap: the kernel's settings that
     // hold up a real-time thread.
     if (cfg_.realtime) {
@@ -124,6 +136,125 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     tasks_->add(housekeeping());
     started_ = std::chrono::steady_clock::now();
     desk_.set_started(started_);
+  }
+
+  struct StartPoint {
+    std::uint64_t tick = 0;
+    bool paused = false;
+  };
+
+  // The keeper and its store, when the config wants one. A store another
+  // daemon holds stops the start (two daemons never share one); one that
+  // cannot be opened otherwise (a read-only or full state directory) is
+  // replaced by one in memory: undo works, a crash loses the sculpt.
+  void open_store() {
+    if (!store_wanted(cfg_)) return;
+    tap_ = std::make_unique<JournalTap>();
+    KeeperSettings settings = keeper_settings(cfg_);
+    if (!cfg_.store.open.empty()) {
+      store::Store::import_file(settings.dir, cfg_.store.open);
+      log::notice("opened {}: it is now the sculpt in {}", cfg_.store.open, settings.dir.string());
+    }
+    try {
+      keeper_ = std::make_unique<Keeper>(settings, *tap_);
+    } catch (const store::StoreInUse&) {
+      throw;
+    } catch (const store::StoreError& e) {
+      memory_store_ = make_memory_dir();
+      log::warning("autosave: {}; the sculpt is kept in memory only ({}): undo works, a crash loses it", e.what(),
+                   memory_store_.string());
+      settings.dir = memory_store_;
+      keeper_ = std::make_unique<Keeper>(settings, *tap_);
+    }
+    loader_->set_copies_for_replica(true);
+  }
+
+  // The sculpt the store holds, recovered, or the configured scene anew.
+  StartPoint install_first_scene() {
+    std::optional<Recovered> rec;
+    if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover();
+    if (!rec && !cfg_.store.open.empty())
+      throw std::runtime_error("--open " + cfg_.store.open + ": no sculpt could be recovered from it");
+    if (!rec) {
+      if (keeper_) keeper_->start_anew();
+      auto bundle = std::make_shared<SceneBundle>(read_bundle(cfg_.scene, simulation_settings(cfg_)));
+      scene::Scene first = load_bundle(*bundle);
+      log_scene_warnings(first);
+      auto copy = keeper_ ? std::make_shared<const scene::Scene>(first) : nullptr;
+      Simulation sim = build_simulation(std::move(first), bundle->settings, *board_);
+      sim.bundle = bundle;
+      if (keeper_) sim.stages->set_journal(tap_.get(), sim.world.get());
+      sims_.install(std::move(sim));
+      if (keeper_) keeper_->scene_started(bundle, std::move(copy), 0);
+      return {};
+    }
+    log_recovery(*rec);
+    Simulation sim = build_simulation(std::move(rec->scene), rec->bundle->settings, *board_, rec->state);
+    sim.bundle = rec->bundle;
+    sim.stages->set_journal(tap_.get(), sim.world.get());
+    sims_.install(std::move(sim), rec->next_tick);
+    keeper_->scene_started(rec->bundle, nullptr, rec->next_tick, /*recovered=*/true);
+    // The devices of the run that ended are gone: their slots are freed
+    // (through the journal) before the live ones attach again.
+    for (std::uint8_t slot = 0; slot < input::kMaxDevices; ++slot)
+      (void)sims_.stages().ring().try_push(input::InputMessage::detach(slot));
+    return {rec->next_tick, rec->paused};
+  }
+
+  void log_recovery(const Recovered& r) {
+    // What a crash loses is the input after the last commit: when that was says how much.
+    std::string last;
+    if (r.committed_ns > 0) {
+      const std::time_t secs = static_cast<std::time_t>(r.committed_ns / 1000000000);
+      std::tm tm{};
+      gmtime_r(&secs, &tm);
+      last = fmt::format(" (the journal's last commit {:%Y-%m-%d %H:%M:%S}.{:03d} UTC: input after it was not saved)", tm,
+                         static_cast<int>(r.committed_ns / 1000000 % 1000));
+    }
+    log::notice("recovered the sculpt of {} at tick {} (mesh hash {:016x}){}: the snapshot of tick {} and {} journal "
+                "entries, {} strokes of history, in {:.0f} ms; {}{}",
+                r.bundle->file, r.next_tick > 0 ? r.next_tick - 1 : 0, r.hash, r.paused ? ", paused" : "",
+                r.snapshot_tick, r.replayed, r.strokes, r.seconds * 1e3,
+                r.lost.empty() ? "nothing saved was lost" : "not exact, see below", last);
+    for (const std::string& l : r.lost) log::warning("recovery: {}", l);
+    if (r.bundle->file != cfg_.scene && cfg_.store.open.empty())
+      log::notice("the config names scene {}: start with --fresh to sculpt it instead", cfg_.scene);
+  }
+
+  static std::filesystem::path make_memory_dir() {
+    const char* shm = "/dev/shm";
+    std::string pattern = std::string(std::filesystem::is_directory(shm) ? shm : "/tmp") + "/sculptd-store-XXXXXX";
+    if (!mkdtemp(pattern.data())) throw std::runtime_error("autosave: cannot make a directory in memory for the store");
+    return pattern;
+  }
+
+  // Undo and redo buttons on the pads (the mapper counts presses on the sim thread).
+  void take_pad_edits() {
+    if (!keeper_) return;
+    const SculptStages& stages = sims_.stages();
+    if (&stages != pad_stages_) {
+      pad_stages_ = &stages;
+      undo_seen_ = stages.undo_presses();
+      redo_seen_ = stages.redo_presses();
+      return;
+    }
+    const std::uint32_t undo = stages.undo_presses(), redo = stages.redo_presses();
+    if (undo != undo_seen_) pad_edit(true, undo - undo_seen_);
+    if (redo != redo_seen_) pad_edit(false, redo - redo_seen_);
+    undo_seen_ = undo;
+    redo_seen_ = redo;
+  }
+
+  void pad_edit(bool undo, std::uint32_t count) {
+    const char* what = undo ? "undo" : "redo";
+    if (sims_.paused()) {
+      log::info("{} (pad): the sculpt is paused; resume first", what);
+      return;
+    }
+    tasks_->add((undo ? keeper_->undo(count) : keeper_->redo(count)).then([what](EditResult r) {
+      if (!r.error.empty()) log::info("{} (pad): {}", what, r.error);
+      else log::info("{} (pad): {} stroke{} at tick {}", what, r.done, r.done == 1 ? "" : "s", r.tick);
+    }));
   }
 
   // Listening before READY=1, so a client started after the daemon is
@@ -151,8 +282,11 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
       server::Server::Replaced shown;
     };
     const auto began = std::chrono::steady_clock::now();
+    auto replica_scene = std::move(next.replica_scene);
+    if (keeper_) next.stages->set_journal(tap_.get(), next.world.get());
     SimHost::Outgoing old = sims_.swap(std::move(next));
     const std::uint64_t tick = sims_.current_tick();
+    if (keeper_) keeper_->scene_started(sims_.bundle(), std::move(replica_scene), tick);
     // Devices first (as attach messages due now, bound to the new scene's
     // tools, live or recorded alike), then what was queued. Viewers read the
     // old published state until set_scene().
@@ -211,6 +345,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
       return;
     }
     input_->pump(sims_.stages().ring());
+    take_pad_edits();
     // A fact tests (and people reading debug logs) can wait for: nothing
     // moves any more, so the meshes stay bit-identical from here on.
     const bool at_rest = sim->stats().vertices_awake.load(std::memory_order_relaxed) == 0;
@@ -281,12 +416,20 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   void stop_threads() {
     if (server_) server_->close();  // no client reads the published state any more
     sims_.stop();
+    if (keeper_) keeper_->stop();  // after the sim thread: it takes everything it did
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
   }
 
   int shutdown(int status) {
     notify::stopping("stopping");
     stop_threads();
+    if (keeper_) {
+      const KeeperStats k = keeper_->stats();
+      log::info("autosave: {} journal entries ({} bytes) in {} commits, the longest gap between two {:.0f} ms; {} "
+                "snapshots, the last of {} bytes of state ({} stored) in {:.0f} ms",
+                k.entries, k.journal_bytes, k.commits, k.longest_commit_gap_ms, k.snapshots, k.snapshot_state_bytes,
+                k.snapshot_stored_bytes, k.snapshot_ms);
+    }
     RunTotals totals;
     totals.stats = loop::snapshot(sims_.stats(), sims_.rate());
     totals.stats.devices = desk_.device_count();  // attached until now
@@ -314,6 +457,11 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   std::unique_ptr<haptics::HapticsThread> haptics_;
   std::unique_ptr<InputSource> input_;  // after hub_, its devices' listener: destroyed first
   BlowupLog blowups_;
+  std::unique_ptr<JournalTap> tap_;
+  std::unique_ptr<Keeper> keeper_;           // none: no store
+  std::filesystem::path memory_store_;       // the store's directory in memory, when the state directory failed
+  const SculptStages* pad_stages_ = nullptr;  // whose undo/redo presses were seen
+  std::uint32_t undo_seen_ = 0, redo_seen_ = 0;
   std::unique_ptr<server::Server> server_;
   std::unique_ptr<server::ListenSocket> listen_;
   std::string socket_path_;

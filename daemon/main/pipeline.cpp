@@ -13,13 +13,82 @@ SculptStages::SculptStages(loop::ToolDriver driver, haptics::FeedbackBoard& boar
 }
 
 void SculptStages::input(std::uint64_t tick, std::span<sim::Tool> tools) {
-  const std::size_t n = mapper_.drain(ring_, tick);
+  if (tap_) write_edits(tick);
+  const std::size_t n = tap_ ? take_messages(tick) : mapper_.drain(ring_, tick);
   if (n) applied_.store(applied_.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
   driver_.update_from(mapper_.controls(), tools);
   tools_ = tools;
+  undo_presses_.store(mapper_.undo_presses(), std::memory_order_relaxed);
+  redo_presses_.store(mapper_.redo_presses(), std::memory_order_relaxed);
+}
+
+// ControlMapper::drain, recording each message; one the journal has no room
+// for waits in the ring (applied late rather than unrecorded).
+std::size_t SculptStages::take_messages(std::uint64_t tick) {
+  std::size_t n = 0;
+  while (const input::InputMessage* m = ring_.peek()) {
+    if (m->at_tick != 0 && m->at_tick > tick) break;
+    if (!tap_->room_for(1)) {
+      tap_->held_back.fetch_add(1, std::memory_order_relaxed);
+      break;
+    }
+    mapper_.take(*m, tick);
+    JournalEntry e;
+    e.kind = JournalEntry::Kind::message;
+    e.tick = tick;
+    e.message = *m;
+    tap_->record(e);
+    ring_.pop();
+    ++n;
+  }
+  return n;
+}
+
+// Whether the images fit this world, checked before any is written (what
+// World::swap_block_image would throw for, so that it never does here).
+bool SculptStages::fits(const EditImages& e) const {
+  if (e.body >= world_->body_count()) return false;
+  const std::size_t size = world_->block_image_bytes(e.body);
+  if (e.images.size() != e.blocks.size() * size) return false;
+  for (const std::uint32_t b : e.blocks)
+    if (b >= world_->body(e.body).blocks) return false;
+  return true;
+}
+
+// Undo and redo: the keeper's images into the world, before the tick's
+// inputs (the replica writes them at the same point). Images made on
+// another scene are refused, and that is recorded too.
+void SculptStages::write_edits(std::uint64_t tick) {
+  while (const EditImages* const* next = tap_->edits().peek()) {
+    if (!tap_->room_for(1)) return;
+    const EditImages& e = **next;
+    // No blocks: the keeper's mark that closes open strokes, recorded at this tick.
+    bool written = world_ && e.scene == tap_->scene.load(std::memory_order_relaxed) && (e.blocks.empty() || fits(e));
+    if (written) {
+      const std::size_t size = world_->block_image_bytes(e.body);
+      for (std::size_t i = 0; i < e.blocks.size(); ++i)
+        world_->swap_block_image(e.body, e.blocks[i], e.images.subspan(i * size, size));
+    }
+    JournalEntry j;
+    j.kind = JournalEntry::Kind::edit;
+    j.refused = !written;
+    j.tick = tick;
+    j.edit = e.id;
+    tap_->record(j);
+    tap_->edits().pop();
+  }
+}
+
+void SculptStages::paused_changed(std::uint64_t tick, bool paused) {
+  if (!tap_) return;
+  JournalEntry e;
+  e.kind = paused ? JournalEntry::Kind::pause : JournalEntry::Kind::resume;
+  e.tick = tick;
+  if (!tap_->record(e)) tap_->held_back.fetch_add(1, std::memory_order_relaxed);
 }
 
 void SculptStages::publish(std::uint64_t tick, const sim::World<float>& world) {
+  if (tap_) tap_->reached(tick);
   if (published_) published_->publish(tick, world, tools_, loop::monotonic_ns());
   const auto feedback = world.feedback();
   for (std::size_t t = 0; t < driver_.size() && t < feedback.size(); ++t) {

@@ -3,6 +3,7 @@
 #include <optional>
 
 #include "main/log.hpp"
+#include "main/scene_bundle.hpp"
 
 namespace sculpt::daemon {
 
@@ -24,7 +25,7 @@ std::vector<std::string> mesh_names(const scene::Scene& s) {
   return names;
 }
 
-kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, SimulationSettings settings,
+kj::Promise<std::string> SceneLoader::load(std::function<SceneSource()> read, SimulationSettings settings,
                                            const char* what) {
   // Busy from the request until the swap: the build, and the wait for the sim thread to stop.
   if (loading_ || worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");
@@ -35,9 +36,14 @@ kj::Promise<std::string> SceneLoader::load(std::function<scene::Scene()> read, S
   };
   auto job = std::make_shared<Job>();
   haptics::FeedbackBoard& board = board_;
-  auto done = worker_.run([job, read = std::move(read), settings, &board] {
+  auto done = worker_.run([job, read = std::move(read), settings, &board, copy = copies_for_replica_] {
     try {
-      job->built.emplace(build_simulation(read(), settings, board));
+      SceneSource source = read();
+      source.bundle->settings = settings;
+      auto replica_scene = copy ? std::make_shared<const scene::Scene>(source.scene) : nullptr;
+      job->built.emplace(build_simulation(std::move(source.scene), settings, board));
+      job->built->bundle = std::move(source.bundle);
+      job->built->replica_scene = std::move(replica_scene);
     } catch (const std::exception& e) {
       job->error = e.what();
     }

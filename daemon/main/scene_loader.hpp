@@ -42,10 +42,13 @@ class SceneLoader {
         stop_sim_(std::move(stop_sim)),
         swap_in_(std::move(swap_in)) {}
 
+  // Builds a copy of each scene for the keeper's replica too (Simulation::replica_scene).
+  void set_copies_for_replica(bool on) { copies_for_replica_ = on; }
+
   // Builds read()'s scene with `settings` on the worker, then swaps it in.
   // Resolves to "" or the error (the running sculpt is then untouched). The
   // build goes on when the caller goes away (a client disconnecting).
-  kj::Promise<std::string> load(std::function<scene::Scene()> read, SimulationSettings settings, const char* what);
+  kj::Promise<std::string> load(std::function<SceneSource()> read, SimulationSettings settings, const char* what);
 
   // Frees `parts` on the disposer thread: at once, or after what it is
   // freeing now (back-to-back loads queue up; the io loop frees nothing).
@@ -63,6 +66,7 @@ class SceneLoader {
 
   StopSim stop_sim_;
   bool loading_ = false;  // a load runs, from its request to its swap
+  bool copies_for_replica_ = false;
   SwapIn swap_in_;
   std::vector<std::shared_ptr<void>> unfreed_;  // replaced, waiting for the disposer
   Worker worker_;    // builds

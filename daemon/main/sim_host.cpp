@@ -12,10 +12,15 @@ constexpr double kRealtimeWakeEarlyUs = 100.0;  // wake_early_us's default with 
 
 }  // namespace
 
-void SimHost::install(Simulation first) { take_in(std::move(first), 0); }
+void SimHost::install(Simulation first, std::uint64_t first_tick) {
+  take_in(std::move(first), first_tick);
+  pending_start_tick_ = first_tick;
+  segment_first_tick_ = first_tick;
+}
 
 void SimHost::take_in(Simulation p, std::uint64_t first_tick) {
   scene_ = std::move(p.scene);
+  bundle_ = std::move(p.bundle);
   rate_ = p.rate;
   tools_ = p.tools;
   world_ = std::move(p.world);
@@ -79,7 +84,7 @@ SimHost::Outgoing SimHost::swap(Simulation next) {
   if (sim_) sim_->stop();
   const std::uint64_t tick = current_tick();
   sim_.reset();
-  Outgoing old{std::move(scene_), std::move(stages_), std::move(published_), std::move(world_)};
+  Outgoing old{std::move(scene_), std::move(stages_), std::move(published_), std::move(world_), std::move(bundle_)};
   simulated_before_s_ += static_cast<double>(tick - segment_first_tick_) / rate_;
   segment_first_tick_ = tick;
   take_in(std::move(next), tick);  // the new published state continues from the tick the old one reached

@@ -27,6 +27,7 @@ class SimHost {
     std::unique_ptr<SculptStages> stages;
     std::unique_ptr<server::PublishedState> published;
     std::unique_ptr<sim::World<float>> world;
+    std::shared_ptr<const SceneBundle> bundle;
   };
 
   // Reads the sim thread's settings (realtime, wake_early_us, duration_s)
@@ -36,8 +37,9 @@ class SimHost {
   SimHost(const SimHost&) = delete;
   SimHost& operator=(const SimHost&) = delete;
 
-  // The first scene, before any thread runs; start() follows.
-  void install(Simulation first);
+  // The first scene, before any thread runs; start() follows. A recovered
+  // world continues its timeline: `first_tick` is its origin (SimThreadOptions).
+  void install(Simulation first, std::uint64_t first_tick = 0);
   // Starts the thread at `first_tick`. Throws when it cannot be created.
   void start(std::uint64_t first_tick, bool paused);
   // Stops the running thread and puts `next` in its place, its ticks going
@@ -58,6 +60,7 @@ class SimHost {
   bool swapping() const { return stop_requested_; }
 
   const scene::Scene& scene() const { return scene_; }
+  const std::shared_ptr<const SceneBundle>& bundle() const { return bundle_; }
   double rate() const { return rate_; }
   std::size_t tools() const { return tools_; }
   SculptStages& stages() { return *stages_; }
@@ -86,6 +89,7 @@ class SimHost {
 
   const DaemonConfig& cfg_;
   scene::Scene scene_;
+  std::shared_ptr<const SceneBundle> bundle_;
   double rate_ = 1000.0;
   std::size_t tools_ = 0;
   std::unique_ptr<sim::World<float>> world_;

@@ -1,6 +1,7 @@
 #include "main/simulation.hpp"
 
 #include "loop/scene_tools.hpp"
+#include "main/replica.hpp"
 #include "scene/scene_world.hpp"
 
 namespace sculpt::daemon {
@@ -29,18 +30,29 @@ SimulationSettings simulation_settings(const DaemonConfig& config) {
                             .ring_capacity = replay ? kReplayRingCapacity : kRingCapacity};
 }
 
-Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board) {
-  Simulation s;
-  s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);
-  s.tools = scene.tools.size();
-  s.world = scene::build_world(scene, s.rate);
+loop::ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings& settings, double rate) {
   const auto specs = loop::tool_specs(scene);
   loop::DriverLimits limits;
   limits.bounds = loop::tool_bounds(loop::mesh_bounds(scene), specs, settings.tool_margin);
   limits.size_step = settings.size_step;
   limits.min_scale = settings.min_scale;
   limits.max_scale = settings.max_scale;
-  s.stages = std::make_unique<SculptStages>(loop::ToolDriver(specs, limits, s.rate), board, settings.ring_capacity);
+  return loop::ToolDriver(specs, limits, rate);
+}
+
+Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board,
+                            std::span<const std::byte> state) {
+  Simulation s;
+  s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);
+  s.tools = scene.tools.size();
+  s.world = scene::build_world(scene, s.rate);
+  s.stages = std::make_unique<SculptStages>(tool_driver(scene, settings, s.rate), board, settings.ring_capacity);
+  if (!state.empty()) {
+    const ReplicaState parts = split_replica_state(state);
+    s.world->restore_state(parts.world);
+    s.stages->driver().restore_state(parts.driver);
+    s.stages->mapper().restore_state(parts.mapper);
+  }
   s.published = std::make_unique<server::PublishedState>(*s.world, s.rate);
   s.stages->set_published(s.published.get());
   s.reader = std::make_unique<server::PublishedReader>(*s.published);

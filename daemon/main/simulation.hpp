@@ -31,8 +31,18 @@ struct SimulationSettings {
   std::size_t ring_capacity = 4096;  // io → sim input messages in flight
 };
 
+struct SceneBundle;
+
+// A scene to build, and the bytes it was read from (main/scene_bundle.hpp).
+struct SceneSource {
+  scene::Scene scene;
+  std::shared_ptr<SceneBundle> bundle;
+};
+
 struct Simulation {
   scene::Scene scene;
+  std::shared_ptr<const SceneBundle> bundle;            // what it was built from
+  std::shared_ptr<const scene::Scene> replica_scene;    // a copy for the keeper's replica (none: no keeper)
   double rate = 0;
   std::size_t tools = 0;
   std::unique_ptr<sim::World<float>> world;
@@ -45,9 +55,15 @@ struct Simulation {
 // What a build reads of `config`, copied for the worker thread.
 SimulationSettings simulation_settings(const DaemonConfig& config);
 
+// The scene's tools as the driver moves them, within the settings' limits.
+loop::ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings& settings, double rate);
+
 // Throws (scene::SceneError, std::invalid_argument) naming what is wrong;
 // scene::build_world makes the checks every reader of a scene shares.
-Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board);
+// `state` (Replica::state(), main/replica.hpp): where the world, the tools
+// and the controls continue from (a recovered sculpt); empty: the scene as loaded.
+Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board,
+                            std::span<const std::byte> state = {});
 
 // What streaming clients need to know about a scene that never changes while it is loaded.
 server::SceneInfo scene_info(const scene::Scene& s, double rate_hz);

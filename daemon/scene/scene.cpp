@@ -397,7 +397,8 @@ SceneMesh parse_mesh(const Table& t, const std::map<std::string, sim::Material>&
   if (!options.load_meshes) return m;
 
   try {
-    m.loaded = builtin ? clean_mesh(generated, m.source, import) : load_mesh(m.path, import);
+    m.loaded = builtin ? clean_mesh(generated, m.source, import)
+                       : load_mesh(options.locate ? options.locate(m.source) : m.path, import);
   } catch (const LoadError& e) {
     t.fail("file", e.what());
   }

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <string_view>
@@ -78,6 +79,9 @@ struct Scene {
 struct SceneOptions {
   ImportOptions import;
   bool load_meshes = true;  // off: parse and check the file only (meshes stay empty)
+  // Where a mesh file named `source` in the scene is read from instead of
+  // its path (a sculpt recovered or opened from its own copy of the files).
+  std::function<std::filesystem::path(const std::string& source)> locate;
 };
 
 // Throws SceneError naming file:line and the key. "builtin:default" loads default_scene().

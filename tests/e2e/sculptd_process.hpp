@@ -46,6 +46,10 @@ class Sculptd {
     // on the host wherever /dev/uinput works).
     if (std::find(args.begin(), args.end(), "--socket") == args.end())
       args.insert(args.end(), {"--socket", temp_path("sculptd.sock")});
+    // Nor the default store, where a person's sculpt may be saved: a test
+    // that means to save passes --state-dir (or --open, --fresh).
+    const auto has = [&args](const char* flag) { return std::find(args.begin(), args.end(), flag) != args.end(); };
+    if (!has("--state-dir") && !has("--no-store") && !has("--open") && !has("--fresh")) args.push_back("--no-store");
     args.insert(args.begin(), SCULPTD_BIN);
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe2");

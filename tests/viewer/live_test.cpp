@@ -33,7 +33,7 @@ class Live : public ::testing::Test {
   }
   std::unique_ptr<Child> start_daemon(const std::string& input, const std::string& log_name) {
     auto d = std::make_unique<Child>(
-        std::vector<std::string>{SCULPTD_BIN, "--socket", socket_, "--input", input},
+        std::vector<std::string>{SCULPTD_BIN, "--socket", socket_, "--input", input, "--no-store"},
         dir_ + "/" + log_name);
     EXPECT_TRUE(d->wait_for_log("sculptd ready", 60s)) << d->log();
     return d;

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "main/autosave.hpp"
 #include "main/cli.hpp"
 #include "main/config.hpp"
 
@@ -159,6 +160,16 @@ CliOptions parse_cli(std::vector<std::string> args) {
   return o;
 }
 
+// The ConfigError applying `args` to `c` gives ("" for none).
+std::string cli_error(std::vector<std::string> args, DaemonConfig& c) {
+  try {
+    parse_cli(std::move(args)).apply(c);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return {};
+}
+
 TEST(Cli, FlagsOverrideTheFile) {
   DaemonConfig c = parse_config("[daemon]\nrate_hz = 500\nscene = \"a.toml\"\nsocket = \"/x\"\n", "f.conf");
   const CliOptions o = parse_cli({"--rate", "250", "--input", "replay:r.jsonl", "--input-clock", "device",
@@ -181,14 +192,7 @@ TEST(Cli, FlagsOverrideTheFile) {
 
 TEST(Cli, BadFlagValuesAreNamed) {
   DaemonConfig c;
-  auto msg = [&](std::vector<std::string> args) {
-    try {
-      parse_cli(std::move(args)).apply(c);
-    } catch (const ConfigError& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  auto msg = [&c](std::vector<std::string> args) { return cli_error(std::move(args), c); };
   EXPECT_NE(msg({"--rate", "0"}).find("--rate"), std::string::npos);
   EXPECT_NE(msg({"--input", "mouse"}).find("--input"), std::string::npos);
   EXPECT_NE(msg({"--input-clock", "x"}).find("--input-clock"), std::string::npos);
@@ -196,6 +200,63 @@ TEST(Cli, BadFlagValuesAreNamed) {
   EXPECT_NE(msg({"--log-level", "x"}).find("--log-level"), std::string::npos);
   EXPECT_THROW(parse_cli({"--rate", "fast"}), CLI::ParseError);
   EXPECT_TRUE(parse_cli({"--config", "/etc/x.conf"}).config_given);
+}
+
+TEST(Config, TheStore) {
+  DaemonConfig c = parse_config(
+      "[store]\nenabled = false\ndir = \"/var/tmp/s\"\nsnapshot_interval_s = 5\nmax_mb = 64\nhistory_mb = 32\n", "f.conf");
+  EXPECT_FALSE(c.store.enabled);
+  EXPECT_EQ(c.store.dir, "/var/tmp/s");
+  EXPECT_EQ(c.store.snapshot_interval_s, 5.0);
+  EXPECT_EQ(c.store.max_mb, 64.0);
+  EXPECT_EQ(c.store.history_mb, 32.0);
+  EXPECT_NE(error_of("[store]\nmax_mb = 1\n").find("test.conf:2: store.max_mb: must be within"), std::string::npos);
+  EXPECT_NE(error_of("[store]\npath = \"x\"\n").find("store.path: unknown key"), std::string::npos);
+
+  const KeeperSettings k = keeper_settings(c);
+  EXPECT_EQ(k.dir, "/var/tmp/s");
+  EXPECT_EQ(k.limits.max_bytes, std::uint64_t{64} << 20);
+  EXPECT_EQ(k.history_budget, std::uint64_t{32} << 20);
+  EXPECT_EQ(k.snapshot_every, std::chrono::milliseconds(5000));
+}
+
+TEST(Config, AReplayIsSavedOnlyIntoADirectoryGivenForIt) {
+  DaemonConfig c;
+  EXPECT_TRUE(store_wanted(c));
+  c.input = parse_input_spec("replay:r.jsonl", "x");
+  EXPECT_FALSE(store_wanted(c));
+  parse_cli({"--state-dir", "/tmp/s"}).apply(c);
+  EXPECT_TRUE(store_wanted(c));
+  parse_cli({"--no-store"}).apply(c);
+  EXPECT_FALSE(store_wanted(c));
+}
+
+TEST(Config, TheStateDirectoryFollowsTheRule) {
+  ::setenv("STATE_DIRECTORY", "/var/lib/sculptd:/var/lib/other", 1);
+  EXPECT_EQ(state_dir(StoreConfig{}), "/var/lib/sculptd");
+  ::unsetenv("STATE_DIRECTORY");
+  ::setenv("XDG_STATE_HOME", "/home/u/.state", 1);
+  EXPECT_EQ(state_dir(StoreConfig{}), "/home/u/.state/sculptd");
+  ::unsetenv("XDG_STATE_HOME");
+  ::setenv("HOME", "/home/u", 1);
+  EXPECT_EQ(state_dir(StoreConfig{}), "/home/u/.local/state/sculptd");
+  StoreConfig given;
+  given.dir = "/srv/s";
+  EXPECT_EQ(state_dir(given), "/srv/s");
+}
+
+TEST(Cli, StoreFlagsThatCannotGoTogetherAreNamed) {
+  DaemonConfig c;
+  auto msg = [&c](std::vector<std::string> args) { return cli_error(std::move(args), c); };
+  EXPECT_NE(msg({"--fresh", "--open", "a.sculpt"}).find("choose one"), std::string::npos);
+  EXPECT_NE(msg({"--no-store", "--state-dir", "/x"}).find("--no-store"), std::string::npos);
+  EXPECT_NE(msg({"--state-dir", ""}).find("--state-dir"), std::string::npos);
+  DaemonConfig d;
+  parse_cli({"--open", "a.sculpt"}).apply(d);
+  EXPECT_EQ(d.store.open, "a.sculpt");
+  EXPECT_TRUE(d.store.enabled);
+  parse_cli({"--fresh"}).apply(d);
+  EXPECT_TRUE(d.store.fresh);
 }
 
 }  // namespace
