@@ -92,9 +92,13 @@ void SculptStages::publish(std::uint64_t tick, const sim::World<float>& world) {
   if (published_) published_->publish(tick, world, tools_, loop::monotonic_ns());
   const auto feedback = world.feedback();
   for (std::size_t t = 0; t < driver_.size() && t < feedback.size(); ++t) {
-    if (driver_.tool(t).active) board_.publish(static_cast<int>(t), feedback[t]);
-    else board_.clear(static_cast<int>(t));
+    const sim::ToolFeedback& f = feedback[t];
+    if (driver_.tool(t).active)
+      board_.publish(static_cast<int>(t), {f.force, f.contacts, f.contacts > 0, f.onset, f.onset_impulse});
+    else
+      board_.clear(static_cast<int>(t));
   }
+  board_.beat();
 }
 
 }  // namespace sculpt::daemon

@@ -36,11 +36,12 @@ void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 namespace sculpt::haptics {
 namespace {
 
-sim::ToolFeedback feedback(double fx, double fy, double fz, std::uint32_t contacts, bool onset = false,
+Felt feedback(double fx, double fy, double fz, std::uint32_t contacts, bool onset = false,
                            double impulse = 0) {
-  sim::ToolFeedback f;
+  Felt f;
   f.force = {fx, fy, fz};
   f.contacts = contacts;
+  f.touching = contacts > 0;
   f.onset = onset;
   f.onset_impulse = impulse;
   return f;

@@ -17,7 +17,7 @@ using namespace sculpt::haptics;
 
 void BM_BoardPublish(benchmark::State& state) {
   FeedbackBoard board(2);
-  sculpt::sim::ToolFeedback f;
+  sculpt::haptics::Felt f;
   f.contacts = 12;
   double x = 0;
   for (auto _ : state) {
@@ -62,7 +62,7 @@ void BM_EnginePoll(benchmark::State& state) {
     return std::make_unique<sculpt::haptics::testing::FakePort>(devices.back(), node);
   }, stats);
   for (int i = 0; i < n; ++i) engine.attach(i, "/dev/input/event" + std::to_string(i), {{i, StickPlane{}}});
-  sculpt::sim::ToolFeedback f;
+  sculpt::haptics::Felt f;
   auto now = Clock::time_point{};
   double a = 0;
   for (auto _ : state) {

@@ -21,10 +21,11 @@ using Call = FakeDeviceState::Call;
 
 const StickPlane kPlane{0, 2, 1.0, 1.0};  // stick x → tool x, stick y → tool z
 
-sim::ToolFeedback push(double fx, double fz, bool onset = false, double impulse = 0) {
-  sim::ToolFeedback f;
+Felt push(double fx, double fz, bool onset = false, double impulse = 0) {
+  Felt f;
   f.force = {fx, 0, fz};
   f.contacts = (fx != 0 || fz != 0) ? 3 : 0;
+  f.touching = f.contacts > 0;
   f.onset = onset;
   f.onset_impulse = impulse;
   return f;

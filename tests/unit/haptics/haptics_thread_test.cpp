@@ -29,7 +29,7 @@ TEST(HapticsThread, AttachPollUpdateAndStopErases) {
   EXPECT_EQ(thread.stats().devices.load(), 1);
   EXPECT_EQ(thread.stats().ff.live_effects.load(), 1);
 
-  sim::ToolFeedback f;
+  Felt f;
   f.force = {1.0, 0, 0};
   f.contacts = 1;
   board.publish(0, f);

@@ -35,7 +35,8 @@ struct Rig {
   void tick(double x) {
     tool.position = {x, 0.0, 0.0};
     world.step({&tool, 1});
-    board.publish(0, world.feedback()[0]);
+    const sim::ToolFeedback& f = world.feedback()[0];
+    board.publish(0, {f.force, f.contacts, f.contacts > 0, f.onset, f.onset_impulse});
     if (n++ % 4 == 0) engine->poll(Clock::time_point{} + n * 1ms);
   }
   std::vector<Call> uploads(std::uint16_t type) const {

@@ -28,10 +28,11 @@ using support::VirtualJoystick;
 
 const StickPlane kPlane{0, 2, 1.0, 1.0};
 
-sim::ToolFeedback contact(double fx, double fz, bool onset = false, double impulse = 0) {
-  sim::ToolFeedback f;
+Felt contact(double fx, double fz, bool onset = false, double impulse = 0) {
+  Felt f;
   f.force = {fx, 0, fz};
   f.contacts = 4;
+  f.touching = true;
   f.onset = onset;
   f.onset_impulse = impulse;
   return f;
