@@ -31,7 +31,8 @@ void add_options(CLI::App& app, CliOptions& o) {
                   "arrival | device: schedule live input by arrival or by the device's MSC_TIMESTAMP", "CLOCK");
   optional_option(app, "--input-delay", o.input_delay_ms, "ms added to device time with --input-clock device (50)", "MS");
   optional_option(app, "--duration", o.duration_s, "exit cleanly after this many seconds of simulation", "SECONDS");
-  app.add_flag("--realtime", o.realtime, "SCHED_FIFO + mlockall for the sim thread, when permitted");
+  auto* realtime = app.add_flag("--realtime", o.realtime, "SCHED_FIFO + mlockall for the sim thread, when permitted");
+  app.add_flag("--no-realtime", o.no_realtime, "not, whatever the config file says")->excludes(realtime);
   optional_option(app, "--stats-json", o.stats_json, "write the stats as JSON to FILE at exit", "FILE");
   optional_option(app, "--hash-out", o.hash_out, "write the final mesh hash (16 hex digits) to FILE at exit", "FILE");
   optional_option(app, "--log-level", o.log_level, "error | warning | notice | info | debug (default info)", "LEVEL");
@@ -75,6 +76,7 @@ void CliOptions::apply(DaemonConfig& c) const {
     c.duration_s = *duration_s;
   }
   if (realtime) c.realtime = true;
+  if (no_realtime) c.realtime = false;
   if (state_dir) {
     if (state_dir->empty()) throw ConfigError("--state-dir: must name a directory");
     c.store.dir = *state_dir;

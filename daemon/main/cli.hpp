@@ -22,7 +22,7 @@ struct CliOptions {
   bool check = false;          // --check: validate config and scene, then exit
   std::optional<std::string> scene, socket, input, input_clock, stats_json, hash_out, log_level;
   std::optional<double> rate_hz, duration_s, input_delay_ms;
-  bool realtime = false;
+  bool realtime = false, no_realtime = false;
   std::optional<std::string> state_dir, open;
   bool fresh = false, no_store = false;
 

@@ -190,6 +190,18 @@ TEST(Cli, FlagsOverrideTheFile) {
   EXPECT_FALSE(o.config_given);
 }
 
+// The installed service passes --realtime; a drop-in turns it off with
+// --no-realtime, whatever the config file says, and neither flag leaves the
+// file's value alone.
+TEST(Cli, NoRealtimeWinsOverTheFile) {
+  DaemonConfig c = parse_config("[daemon]\nrealtime = true\n", "f.conf");
+  parse_cli({"--no-realtime"}).apply(c);
+  EXPECT_FALSE(c.realtime);
+  DaemonConfig kept = parse_config("[daemon]\nrealtime = true\n", "f.conf");
+  parse_cli({}).apply(kept);
+  EXPECT_TRUE(kept.realtime);
+}
+
 TEST(Cli, BadFlagValuesAreNamed) {
   DaemonConfig c;
   auto msg = [&c](std::vector<std::string> args) { return cli_error(std::move(args), c); };
