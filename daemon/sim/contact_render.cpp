@@ -1,0 +1,140 @@
+#include "sim/contact_render.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace sculpt::sim {
+
+namespace {
+
+double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+
+bool finite(const Vec3d& a) { return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]); }
+
+}  // namespace
+
+ContactRenderer::ContactRenderer(double dt, const ContactRenderSettings& settings) : dt_(dt), settings_(settings) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("contact renderer: dt must be positive");
+  if (settings.window_ticks < 1 || settings.window_ticks > ContactRenderSettings::kMaxWindow)
+    throw std::invalid_argument("contact renderer: window_ticks must be 1.." +
+                                std::to_string(ContactRenderSettings::kMaxWindow));
+  if (!(settings.smoothing >= 0.0) || settings.release_ticks < 0 || !(settings.release_distance >= 0.0) ||
+      !(settings.contact_stiffness >= 0.0) || !(settings.max_tool_speed > 0.0))
+    throw std::invalid_argument(
+        "contact renderer: smoothing, release_ticks, release_distance, contact_stiffness must be >= 0 and "
+        "max_tool_speed > 0");
+}
+
+void ContactRenderer::reset() {
+  const double dt = dt_;
+  const ContactRenderSettings s = settings_;
+  *this = ContactRenderer(dt, s);
+}
+
+const RenderedContact& ContactRenderer::update(const ToolFeedback& raw, const Vec3d& p) {
+  // The tool's velocity over this tick, the motion the raw force answered.
+  Vec3d v{};
+  bool teleported = false;
+  if (have_pose_ && finite(p)) {
+    const Vec3d d = sub(p, pose_);
+    if (std::sqrt(dot(d, d)) > settings_.max_tool_speed * dt_)
+      teleported = true;
+    else
+      v = {d[0] / dt_, d[1] / dt_, d[2] / dt_};
+  }
+  if (finite(p)) {
+    pose_ = p;
+    have_pose_ = true;
+  }
+  out_.onset = false;
+  out_.damped = 0;
+  out_.contacts = raw.contacts;
+  update_contact_state(raw, pose_, teleported);
+  update_force(raw, v);
+  keep_passive(v);
+  return out_;
+}
+
+void ContactRenderer::update_contact_state(const ToolFeedback& raw, const Vec3d& p, bool teleported) {
+  auto release = [&] {
+    out_.touching = false;
+    impulses_.fill({});
+    impulse_sum_ = {};
+    smoothed_ = {};
+    normal_ = {};
+    out_.depth = 0;
+    head_ = 0;
+  };
+  if (teleported && out_.touching) release();
+  if (raw.contacts > 0) {
+    ticks_since_contact_ = 0;
+    last_touch_ = p;
+    if (!out_.touching) {
+      out_.touching = true;
+      out_.onset = true;
+      out_.onset_impulse = finite(raw.force) ? std::sqrt(dot(raw.force, raw.force)) * dt_ : 0.0;
+      energy_ = 0;  // a new contact starts with nothing stored
+      out_.depth = 0;
+    }
+    return;
+  }
+  if (ticks_since_contact_ < settings_.release_ticks) ++ticks_since_contact_;
+  if (!out_.touching || ticks_since_contact_ < settings_.release_ticks) return;
+  const Vec3d away = sub(p, last_touch_);
+  if (dot(away, away) >= settings_.release_distance * settings_.release_distance) release();
+}
+
+void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
+  if (!out_.touching) {
+    out_.force = {};
+    return;
+  }
+  const int w = settings_.window_ticks;
+  const Vec3d j = finite(raw.force) ? Vec3d{raw.force[0] * dt_, raw.force[1] * dt_, raw.force[2] * dt_} : Vec3d{};
+  Vec3d& slot = impulses_[head_];
+  for (int k = 0; k < 3; ++k) impulse_sum_[k] += j[k] - slot[k];
+  slot = j;
+  if (++head_ == w) {
+    head_ = 0;
+    // Once per window the running sum is summed afresh, so rounding never piles up.
+    impulse_sum_ = {};
+    for (int i = 0; i < w; ++i)
+      for (int k = 0; k < 3; ++k) impulse_sum_[k] += impulses_[i][k];
+  }
+  const double alpha = dt_ / (settings_.smoothing + dt_);
+  for (int k = 0; k < 3; ++k) {
+    const double mean = impulse_sum_[k] / (w * dt_);
+    smoothed_[k] += alpha * (mean - smoothed_[k]);
+  }
+  // The proxy: depth grows with motion against the reaction, shrinks with
+  // motion along it, and ignores motion across it (sliding on the surface).
+  const double sum = std::sqrt(dot(impulse_sum_, impulse_sum_));
+  if (sum > 0.0) normal_ = {impulse_sum_[0] / sum, impulse_sum_[1] / sum, impulse_sum_[2] / sum};
+  if (!out_.onset) out_.depth = std::max(0.0, out_.depth - dot(v, normal_) * dt_);
+  const double proxy = settings_.contact_stiffness * out_.depth;
+  for (int k = 0; k < 3; ++k) out_.force[k] = smoothed_[k] + proxy * normal_[k];
+}
+
+// Hannaford–Ryu: the observer's energy after this tick must stay ≥ 0; if the
+// force would take more out than the contact has put in, a damper along the
+// velocity, −λv, removes the difference (λ ≥ 0 is the least that does).
+void ContactRenderer::keep_passive(const Vec3d& v) {
+  if (!out_.touching) return;
+  const double v2 = dot(v, v);
+  const double returned = dot(out_.force, v) * dt_;  // energy the force gives the tool this tick
+  if (returned > energy_ && v2 > 0.0) {
+    const double lambda = (returned - energy_) / (v2 * dt_) * (1.0 + 1e-9);  // rounding stays on the safe side
+    for (int k = 0; k < 3; ++k) out_.force[k] -= lambda * v[k];
+    out_.damped = returned - energy_;
+    energy_ = 0;
+  } else {
+    energy_ -= returned;
+  }
+  energy_ = std::max(energy_, 0.0);
+}
+
+}  // namespace sculpt::sim
