@@ -95,16 +95,13 @@ void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
   }
   const int w = settings_.window_ticks;
   const Vec3d j = finite(raw.force) ? Vec3d{raw.force[0] * dt_, raw.force[1] * dt_, raw.force[2] * dt_} : Vec3d{};
-  Vec3d& slot = impulses_[head_];
-  for (int k = 0; k < 3; ++k) impulse_sum_[k] += j[k] - slot[k];
-  slot = j;
-  if (++head_ == w) {
-    head_ = 0;
-    // Once per window the running sum is summed afresh, so rounding never piles up.
-    impulse_sum_ = {};
-    for (int i = 0; i < w; ++i)
-      for (int k = 0; k < 3; ++k) impulse_sum_[k] += impulses_[i][k];
-  }
+  impulses_[head_] = j;
+  if (++head_ == w) head_ = 0;
+  // Summed afresh every tick (64 adds): a running sum would keep rounding
+  // residue once the window is all zeros, and its direction is the normal.
+  impulse_sum_ = {};
+  for (int i = 0; i < w; ++i)
+    for (int k = 0; k < 3; ++k) impulse_sum_[k] += impulses_[i][k];
   const double alpha = dt_ / (settings_.smoothing + dt_);
   for (int k = 0; k < 3; ++k) {
     const double mean = impulse_sum_[k] / (w * dt_);
@@ -114,7 +111,10 @@ void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
   // motion along it, and ignores motion across it (sliding on the surface).
   const double sum = std::sqrt(dot(impulse_sum_, impulse_sum_));
   if (sum > 0.0) normal_ = {impulse_sum_[0] / sum, impulse_sum_[1] / sum, impulse_sum_[2] / sum};
-  if (!out_.onset) out_.depth = std::max(0.0, out_.depth - dot(v, normal_) * dt_);
+  // Deeper only while the mesh is being met (a tool sliding off it gains none).
+  double deeper = out_.onset ? 0.0 : -dot(v, normal_) * dt_;
+  if (deeper > 0.0 && ticks_since_contact_ >= settings_.release_ticks) deeper = 0.0;
+  out_.depth = std::max(0.0, out_.depth + deeper);
   const double proxy = settings_.contact_stiffness * out_.depth;
   for (int k = 0; k < 3; ++k) out_.force[k] = smoothed_[k] + proxy * normal_[k];
 }

@@ -216,6 +216,26 @@ TEST(ContactRender, TogglingImpulsesBecomeTheirMean) {
   EXPECT_EQ(r.last().force[1], 0.0);
 }
 
+// Lifting off slowly after a press: the felt force fades along the last
+// normal and never turns round to pull the tool back (a direction taken from
+// rounding residue once the window empties would).
+TEST(ContactRender, LiftOffNeverPulls) {
+  ContactRenderer r(kDt);
+  ToolFeedback raw;
+  double y = 0;
+  for (int k = 0; k < 300; ++k) {
+    raw.contacts = k % 3 == 0;
+    raw.force = {0.001 * std::sin(k * 0.1), raw.contacts ? 0.3 + 0.1 * std::sin(k * 0.37) : 0.0, 0};
+    r.update(raw, {0, y -= 1e-6, 0});
+  }
+  raw = {};
+  for (int k = 0; k < 2000; ++k) {
+    r.update(raw, {0, y += 5e-7, 0});
+    ASSERT_GE(r.last().force[1], 0.0) << k;
+  }
+  EXPECT_FALSE(r.last().touching);
+}
+
 // A teleport (faster than any hand) is no velocity and ends the contact.
 TEST(ContactRender, TeleportReleases) {
   ContactRenderer r(kDt);
