@@ -9,6 +9,8 @@ namespace sculpt::sim {
 
 namespace {
 
+constexpr double kFarReleases = 10.0;  // release_distances in any direction that end a contact
+
 double dot(const Vec3d& a, const Vec3d& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 Vec3d sub(const Vec3d& a, const Vec3d& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
@@ -77,15 +79,18 @@ void ContactRenderer::update_contact_state(const ToolFeedback& raw, const Vec3d&
       out_.touching = true;
       out_.onset = true;
       out_.onset_impulse = finite(raw.force) ? std::sqrt(dot(raw.force, raw.force)) * dt_ : 0.0;
-      energy_ = 0;  // a new contact starts with nothing stored
+      energy_ = energy_held_ = 0;  // a new contact starts with nothing stored
       out_.depth = 0;
     }
     return;
   }
   if (ticks_since_contact_ < settings_.release_ticks) ++ticks_since_contact_;
   if (!out_.touching || ticks_since_contact_ < settings_.release_ticks) return;
+  // Away from the surface (along the normal), or far in any direction (slid
+  // off the mesh, or into a void where clay has flowed away).
   const Vec3d away = sub(p, last_touch_);
-  if (dot(away, away) >= settings_.release_distance * settings_.release_distance) release();
+  const double far = kFarReleases * settings_.release_distance;
+  if (dot(away, normal_) >= settings_.release_distance || dot(away, away) >= far * far) release();
 }
 
 void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
@@ -109,8 +114,10 @@ void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
   }
   // The proxy: depth grows with motion against the reaction, shrinks with
   // motion along it, and ignores motion across it (sliding on the surface).
+  // The normal is taken on ticks of contact only: once the window is down to
+  // its tail, what is left says nothing about the surface.
   const double sum = std::sqrt(dot(impulse_sum_, impulse_sum_));
-  if (sum > 0.0) normal_ = {impulse_sum_[0] / sum, impulse_sum_[1] / sum, impulse_sum_[2] / sum};
+  if (raw.contacts > 0 && sum > 0.0) normal_ = {impulse_sum_[0] / sum, impulse_sum_[1] / sum, impulse_sum_[2] / sum};
   // Deeper only while the mesh is being met (a tool sliding off it gains none).
   double deeper = out_.onset ? 0.0 : -dot(v, normal_) * dt_;
   if (deeper > 0.0 && ticks_since_contact_ >= settings_.release_ticks) deeper = 0.0;
@@ -123,18 +130,23 @@ void ContactRenderer::update_force(const ToolFeedback& raw, const Vec3d& v) {
 // force would take more out than the contact has put in, a damper along the
 // velocity, −λv, removes the difference (λ ≥ 0 is the least that does).
 void ContactRenderer::keep_passive(const Vec3d& v) {
-  if (!out_.touching) return;
+  // The force a device held since the last tick met this tick's motion too.
+  energy_held_ = std::max(0.0, energy_held_ - dot(held_force_, v) * dt_);
+  if (!out_.touching) {
+    held_force_ = {};
+    return;
+  }
   const double v2 = dot(v, v);
   const double returned = dot(out_.force, v) * dt_;  // energy the force gives the tool this tick
-  if (returned > energy_ && v2 > 0.0) {
-    const double lambda = (returned - energy_) / (v2 * dt_) * (1.0 + 1e-9);  // rounding stays on the safe side
+  // The held pairing is guarded on the guess that the next tick moves as this one did.
+  const double stored = std::min(energy_, energy_held_);
+  if (returned > stored && v2 > 0.0) {
+    const double lambda = (returned - stored) / (v2 * dt_) * (1.0 + 1e-9);  // rounding stays on the safe side
     for (int k = 0; k < 3; ++k) out_.force[k] -= lambda * v[k];
-    out_.damped = returned - energy_;
-    energy_ = 0;
-  } else {
-    energy_ -= returned;
+    out_.damped = returned - stored;
   }
-  energy_ = std::max(energy_, 0.0);
+  energy_ = std::max(0.0, energy_ - dot(out_.force, v) * dt_);
+  held_force_ = out_.force;
 }
 
 }  // namespace sculpt::sim

@@ -33,7 +33,11 @@
 //      returns more energy than it took. The energy the tool has put into the
 //      environment since the onset, E = Σ −F·v·dt (v from successive poses),
 //      is observed, and whenever the tick's force would make it negative a
-//      damper along v takes out exactly the excess, so E ≥ 0 always.
+//      damper along v takes out exactly the excess, so E ≥ 0 always. The
+//      force is paired with the motion it answered (the tick's); a device
+//      holds it while the tool makes the next tick's motion, so that pairing
+//      is observed too and kept ≥ 0 on the guess that the next tick moves
+//      like this one (exact for steady motion).
 //
 // Pure: no I/O, no allocation, deterministic (same inputs → same outputs).
 #pragma once
@@ -97,7 +101,9 @@ class ContactRenderer {
   Vec3d pose_{};            // last tick's tool position
   Vec3d last_touch_{};      // tool position at the last tick with raw contacts
   int ticks_since_contact_ = 0;
-  double energy_ = 0;
+  double energy_ = 0;        // observer: force with the tick's motion
+  double energy_held_ = 0;   // observer: last tick's force with this tick's motion
+  Vec3d held_force_{};
 };
 
 }  // namespace sculpt::sim
