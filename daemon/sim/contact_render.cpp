@@ -53,6 +53,7 @@ const RenderedContact& ContactRenderer::update(const ToolFeedback& raw, const Ve
     have_pose_ = true;
   }
   out_.onset = false;
+  out_.onset_impulse = 0;  // as the world's feedback: set on the onset tick only
   out_.damped = 0;
   out_.contacts = raw.contacts;
   update_contact_state(raw, pose_, teleported);

@@ -64,7 +64,7 @@ struct RenderedContact {
   std::uint32_t contacts = 0; // raw contacts this tick
   bool touching = false;      // in contact (with hysteresis)
   bool onset = false;         // touching turned on this tick
-  double onset_impulse = 0;   // N·s: the raw impulse of the onset tick (grows with approach speed)
+  double onset_impulse = 0;   // N·s, onset ticks only: the raw impulse of that tick (grows with approach speed)
   double depth = 0;           // m, the tool's depth past the proxy (δ)
   double damped = 0;          // J removed by the passivity controller this tick (≥ 0)
 };

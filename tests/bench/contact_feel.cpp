@@ -164,12 +164,13 @@ void onset_spike(const Material& m) {
   Rig r(m);
   r.move_to(kTouchY + 0.001, 0.05, 50);
   while (!r.felt.touching) r.step(r.y - 5e-5);
+  const double impulse = r.felt.onset_impulse;
   double raw = norm(r.raw.force), felt = norm(r.felt.force);
   for (int k = 0; k < 50; ++k) {
     r.step(r.y - 5e-5);
     raw = std::max(raw, norm(r.raw.force)), felt = std::max(felt, norm(r.felt.force));
   }
-  std::printf("  raw %.4f N, felt %.4f N; onset impulse %.2e N·s\n", raw, felt, r.render.last().onset_impulse);
+  std::printf("  raw %.4f N, felt %.4f N; onset impulse %.2e N·s\n", raw, felt, impulse);
 }
 
 }  // namespace

@@ -128,6 +128,7 @@ TEST(ContactRender, EachRealTouchGivesOneOnset) {
   for (int touch = 1; touch <= 3; ++touch) {
     p.move_to(kTouchY - 0.003, 0.05, 300);
     EXPECT_TRUE(p.render.last().touching);
+    EXPECT_EQ(p.render.last().onset_impulse, 0.0);  // only on the onset tick
     p.move_to(kTouchY + 0.005, 0.05, 300);  // well clear, also of the surface ringing back
     EXPECT_FALSE(p.render.last().touching);
     EXPECT_EQ(p.onsets, touch);
