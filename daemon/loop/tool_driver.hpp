@@ -76,6 +76,7 @@ class ToolDriver {
   // The current pose of tool t (also what the last update wrote).
   const sim::Tool& tool(std::size_t t) const { return state_[t].tool; }
   const DriverLimits& limits() const { return limits_; }
+  double dt() const { return dt_; }  // s per tick
 
   // The tools' poses and what the driver remembers of their controls, as
   // bytes (allocates): a driver made from the same specs continues from

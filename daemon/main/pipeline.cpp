@@ -6,7 +6,11 @@
 namespace sculpt::daemon {
 
 SculptStages::SculptStages(loop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity)
-    : driver_(std::move(driver)), board_(board), ring_(ring_capacity), mapper_(driver_.size()) {
+    : driver_(std::move(driver)),
+      board_(board),
+      felt_(driver_.size(), sim::ContactRenderer(driver_.dt())),
+      ring_(ring_capacity),
+      mapper_(driver_.size()) {
   if (driver_.size() > input::kMaxTools)
     throw std::invalid_argument("the scene has " + std::to_string(driver_.size()) + " tools; at most " +
                                 std::to_string(input::kMaxTools) + " can be driven");
@@ -92,11 +96,15 @@ void SculptStages::publish(std::uint64_t tick, const sim::World<float>& world) {
   if (published_) published_->publish(tick, world, tools_, loop::monotonic_ns());
   const auto feedback = world.feedback();
   for (std::size_t t = 0; t < driver_.size() && t < feedback.size(); ++t) {
-    const sim::ToolFeedback& f = feedback[t];
-    if (driver_.tool(t).active)
-      board_.publish(static_cast<int>(t), {f.force, f.contacts, f.contacts > 0, f.onset, f.onset_impulse});
-    else
+    const sim::Tool& tool = driver_.tool(t);
+    if (tool.active) {
+      // The pose this tick's step used: the renderer takes the tool's velocity from successive ones.
+      const sim::RenderedContact& c = felt_[t].update(feedback[t], tool.position);
+      board_.publish(static_cast<int>(t), {c.force, c.contacts, c.touching, c.onset, c.onset_impulse});
+    } else {
+      felt_[t].reset();
       board_.clear(static_cast<int>(t));
+    }
   }
   board_.beat();
 }

@@ -1,7 +1,8 @@
 // What the sim thread does around World::step in sculptd: stroke images the
 // keeper sent (undo, redo) into the world, inputs due this tick (ring →
 // ControlMapper) → ToolDriver → tool poses; after the step, each tool's
-// contact force to the haptics' FeedbackBoard. With a journal tap, each of
+// contact rendered (sim::ContactRenderer, one per tool, fresh for each scene)
+// to the haptics' FeedbackBoard. With a journal tap, each of
 // these is recorded with its tick (main/journal.hpp). Allocation-free once
 // constructed (tests/unit/loop checks it with a counting operator new).
 #pragma once
@@ -9,6 +10,7 @@
 #include <atomic>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "concurrency/spsc_ring.hpp"
 #include "haptics/feedback_board.hpp"
@@ -18,6 +20,7 @@
 #include "loop/tool_driver.hpp"
 #include "main/journal.hpp"
 #include "server/published_state.hpp"
+#include "sim/contact_render.hpp"
 
 namespace sculpt::daemon {
 
@@ -67,6 +70,7 @@ class SculptStages final : public loop::TickStages {
 
   loop::ToolDriver driver_;
   haptics::FeedbackBoard& board_;
+  std::vector<sim::ContactRenderer> felt_;  // per tool: raw reaction → felt contact
   concurrency::SpscRing<input::InputMessage> ring_;
   input::ControlMapper mapper_;
   std::atomic<std::uint64_t> applied_{0};

@@ -6,6 +6,7 @@
 
 #include <linux/input.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -87,6 +88,53 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated";
   server::PublishedReader viewer(published);
   EXPECT_EQ(viewer.sync().tick, 600u) << "the publish stage did not reach the streaming state";
+}
+
+// The board gets the rendered contact, not the world's raw reaction: a tool
+// resting on the ball, where the raw contacts toggle tick to tick, is
+// touching steadily with one onset and a force that is never zero.
+TEST(Pipeline, TheBoardFeelsARestingToolSteadily) {
+  sim::World<float> world(sim::SimSettings{}, 1);
+  world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
+  haptics::FeedbackBoard board(1);
+  loop::DriverLimits limits;
+  limits.bounds = loop::Box{{-1, -1, -1}, {1, 1, 1}};
+  loop::ToolSpec spec;
+  spec.position = {0, 0.05 + 0.02 - 0.0003, 0};  // 0.3 mm into the rest surface
+  SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  input::DeviceBinding b;
+  input::AxisBinding y;
+  y.code = ABS_Y;
+  y.tool = 0;
+  y.component = 1;
+  y.calibration.minimum = -511;  // centred on 0: the tool stays put
+  y.calibration.maximum = 511;
+  b.add_axis(y);
+  b.tool_mask = 1;
+  ASSERT_TRUE(stages.ring().try_push(input::InputMessage::attach(0, b)));
+  input::InputFrame f;  // the stick at rest
+  f.slot = 0;
+  f.push({EV_ABS, ABS_Y, 0});
+  f.push({EV_SYN, SYN_REPORT, 0});
+  ASSERT_TRUE(stages.ring().try_push(input::InputMessage::of_frame(f)));
+
+  std::array<sim::Tool, 1> tools{};
+  int raw_onsets = 0, untouched = 0, unfelt = 0;
+  for (std::uint64_t tick = 1; tick <= 2500; ++tick) {
+    stages.input(tick, tools);
+    world.step(tools);
+    stages.publish(tick, world);
+    raw_onsets += world.feedback()[0].onset;
+    if (tick > 100) {
+      const haptics::ToolForce felt = board.read(0);
+      untouched += !felt.touching;
+      unfelt += !(felt.force[1] > 0.0);
+    }
+  }
+  EXPECT_EQ(board.read(0).onsets, 1u);
+  EXPECT_EQ(untouched, 0);
+  EXPECT_EQ(unfelt, 0);
+  EXPECT_GT(raw_onsets, 100) << "the raw contacts no longer toggle here: the test shows nothing";
 }
 
 }  // namespace
