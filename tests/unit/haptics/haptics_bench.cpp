@@ -55,7 +55,7 @@ void BM_EnginePoll(benchmark::State& state) {
   FeedbackBoard board(n);
   HapticsStats stats;
   HapticsSettings settings;
-  settings.min_upload_interval = std::chrono::milliseconds(0);
+  settings.pacing.other = std::chrono::milliseconds(0);
   std::vector<std::shared_ptr<sculpt::haptics::testing::FakeDeviceState>> devices;
   HapticsEngine engine(board, settings, [&](const std::string& node) -> std::unique_ptr<FfPort> {
     devices.push_back(sculpt::haptics::testing::fake_device({FF_CONSTANT, FF_RUMBLE}, 16));
