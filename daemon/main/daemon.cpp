@@ -95,6 +95,8 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     loader_ = std::make_unique<SceneLoader>(
         *tasks_, stopping_, *board_,
         [this] {
+          // The scene is replaced: nothing is felt until the new one ticks.
+          board_->set_hold(haptics::Hold::swapping);
           sims_.request_stop();
           return until_sim_stopped();
         },
@@ -122,6 +124,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     start_server();
     if (keeper_) keeper_->start();
     // The sim thread. READY waits for its first tick (housekeep()).
+    board_->set_hold(start.paused ? haptics::Hold::paused : haptics::Hold::none);
     sims_.start(start.tick, start.paused);
     // Once per process, not at every scene swap: the kernel's settings that
     // hold up a real-time thread.
@@ -298,6 +301,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     loader_->dispose(Replaced{std::move(old), std::move(shown)});
     blowups_.reset(mesh_names(sims_.scene()));
     sims_.restart_if_missing();
+    board_->set_hold(sims_.paused() ? haptics::Hold::paused : haptics::Hold::none);
     log::notice("{}: scene {} ({} meshes, {} vertices) from tick {} (the swap held the io loop {:.1f} ms)", what,
                 sims_.scene().file.string(), sims_.scene().meshes.size(), vertices_of(sims_.scene()),
                 tick,
@@ -415,6 +419,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
 
   void stop_threads() {
     if (server_) server_->close();  // no client reads the published state any more
+    board_->set_hold(haptics::Hold::stopped);  // zero felt before the sim thread stops beating
     sims_.stop();
     if (keeper_) keeper_->stop();  // after the sim thread: it takes everything it did
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
