@@ -1,5 +1,7 @@
 #include "haptics/device_player.hpp"
 
+#include <utility>
+
 namespace sculpt::haptics {
 
 void DevicePlayer::set_timing(PlayerTiming timing) {
@@ -20,6 +22,7 @@ void DevicePlayer::silence() {
 
 void DevicePlayer::restart() {
   silence();
+  gain_pending_.reset();
   started_until_.reset();
   main_mode_ = FfMode::none;
 }
@@ -59,9 +62,17 @@ bool DevicePlayer::step(FfDevice& ff, Clock::time_point now) {
     return true;
   };
 
+  last_write_gain_ = false;
   if (!ff.holds(main)) {
     if (upload_main(rumble_target(now))) started_until_.reset();
     return done();
+  }
+  if (gain_pending_) {
+    const std::uint16_t g = *std::exchange(gain_pending_, std::nullopt);
+    if (ff.set_gain(g)) {
+      last_write_gain_ = true;
+      return done();
+    }
   }
   if (!main_playing(now)) {
     if (ff.play(main)) started_until_ = now + timing_.effect_length;

@@ -3,6 +3,7 @@
 // (want, kick, silence); step() picks the one write that matters most now:
 //
 //   1. the main effect has no id yet        → upload it (new id, then in place forever)
+//   1b. FF_GAIN to write (open, SIGHUP)     → write it (memless drivers send a report for it too)
 //   2. the main effect is not playing        → play it (it is always playing: levels change in place)
 //   3. a kick is pending                     → rumble-only: upload the kick mix into the one effect,
 //                                               back to the contact level once kick length has passed;
@@ -44,6 +45,8 @@ class DevicePlayer {
     want_constant_ = constant;
     want_rumble_ = rumble;
   }
+  // FF_GAIN to write at the next write (when the device has it).
+  void gain(std::uint16_t g) { gain_pending_ = g; }
   // Start a kick (tuned) as soon as pacing allows; kicks waiting merge (the
   // stronger one wins).
   void kick(const RumbleCommand& k);
@@ -62,6 +65,8 @@ class DevicePlayer {
   const WritePacer& pacer() const { return pacer_; }
   std::uint64_t writes() const { return writes_; }
   std::uint64_t kicks() const { return kicks_; }
+  // The last write step() attempted was FF_GAIN (not an effect's).
+  bool last_write_was_gain() const { return last_write_gain_; }
 
  private:
   RumbleCommand rumble_target(Clock::time_point now) const;
@@ -71,9 +76,11 @@ class DevicePlayer {
   WritePacer pacer_;
   ConstantCommand want_constant_{};
   RumbleCommand want_rumble_{};
+  std::optional<std::uint16_t> gain_pending_;       // FF_GAIN to write
   std::optional<RumbleCommand> kick_pending_;       // to upload
   bool kick_play_pending_ = false;                  // constant mode: uploaded, to play
   bool last_was_kick_ = false;                      // the last write was for a kick
+  bool last_write_gain_ = false;
   std::optional<Clock::time_point> kick_until_;     // rumble-only: the kick mix plays until then
   RumbleCommand kick_playing_{};
   std::optional<Clock::time_point> started_until_;  // the main effect plays until then (if not re-armed)

@@ -15,7 +15,7 @@ FfDevice::FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options,
   mode_ = constant_ok ? FfMode::constant : rumble_has_ ? FfMode::rumble_only : FfMode::none;
   // Room for one effect only: the constant force takes it; kicks need a second id.
   rumble_ok_ = rumble_has_ && (mode_ == FfMode::rumble_only || caps_.effects_max >= 2);
-  if (mode_ != FfMode::none) set_gain(options_.gain);
+  if (mode_ != FfMode::none && options_.gain_at_open) set_gain(options_.gain);
 }
 
 std::unique_ptr<FfDevice> FfDevice::open(const std::string& node, const FfDeviceOptions& options,
@@ -42,10 +42,11 @@ void FfDevice::add_live(int delta) {
   if (counters_) counters_->live_effects.fetch_add(delta, std::memory_order_relaxed);
 }
 
-void FfDevice::set_gain(std::uint16_t gain) {
+bool FfDevice::set_gain(std::uint16_t gain) {
   options_.gain = gain;
-  if (gone_ || shut_ || !caps_.has(FF_GAIN)) return;
+  if (gone_ || shut_ || !caps_.has(FF_GAIN)) return false;
   if (const int err = port_->write_ff(FF_GAIN, gain)) count_error(err);
+  return true;
 }
 
 int FfDevice::upload(ff_effect& e, std::int16_t& id) {

@@ -45,6 +45,7 @@ enum class FfMode {
 
 struct FfDeviceOptions {
   std::uint16_t gain = 0xffff;  // FF_GAIN, written once when the device supports it
+  bool gain_at_open = true;     // false: the caller writes it (set_gain), paced with the rest
   bool constant = true;         // allow FF_CONSTANT
   bool rumble = true;           // allow FF_RUMBLE (kicks; the force itself on rumble-only pads)
 };
@@ -85,8 +86,9 @@ class FfDevice {
   // Some write has succeeded since the device was opened.
   bool ready_seen() const { return ready_seen_; }
 
-  // FF_GAIN (0..0xffff), when the device has it.
-  void set_gain(std::uint16_t gain);
+  // FF_GAIN (0..0xffff), when the device has it: one write. Returns whether
+  // it wrote.
+  bool set_gain(std::uint16_t gain);
 
   // Stops and erases every effect this device holds. Idempotent.
   void shutdown();

@@ -103,6 +103,7 @@ void HapticsEngine::open_ff(Attached& d) {
   options.gain = settings_.gain;
   options.constant = settings_.constant;
   options.rumble = true;  // the force itself on rumble-only pads; kicks follow rumble_on_onset
+  options.gain_at_open = false;  // the player writes it, paced like every other write
   try {
     auto ff = std::make_unique<FfDevice>(opener_(d.node), options, &stats_.ff);
     if (valid_slot(d.slot))
@@ -125,6 +126,7 @@ void HapticsEngine::open_ff(Attached& d) {
                    " paced " + std::to_string(interval.count()) + " ms");
     d.ff = std::move(ff);
     d.player.set_timing(timing_for(d));
+    d.player.gain(settings_.gain);
     stats_.ff_devices.fetch_add(1, std::memory_order_relaxed);
   } catch (const std::exception& e) {
     // A device we cannot open for FF still works as input: say so, go on.
@@ -183,7 +185,7 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
       open_ff(d);
     } else if (d.ff) {
       d.player.set_timing(timing_for(d));
-      d.ff->set_gain(settings_.gain);
+      d.player.gain(settings_.gain);
     }
   }
   for (int s = 0; s < HapticsStats::kSlots; ++s) publish_tuning(s);
@@ -312,7 +314,7 @@ void HapticsEngine::poll_device(Attached& d, Clock::time_point now, bool quiet) 
 }
 
 void HapticsEngine::watch_first_write(Attached& d, Clock::time_point now, bool attempted) {
-  if (d.first_settled || !attempted) return;
+  if (d.first_settled || !attempted || d.player.last_write_was_gain()) return;
   FfDevice& ff = *d.ff;
   if (ff.ready_seen()) {
     d.first_settled = true;

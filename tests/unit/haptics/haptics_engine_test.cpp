@@ -56,11 +56,11 @@ class Engine : public ::testing::Test {
     d->identity.name = "Fake " + node;
     return d;
   }
-  // Every call that reaches the driver as a report: uploads and plays (not FF_GAIN).
+  // Every call that reaches the driver as a report: uploads, plays and FF_GAIN.
   static std::vector<Call> reports(const FakeDeviceState& s) {
     std::vector<Call> out;
     for (const auto& c : s.calls)
-      if (c.kind == Call::upload || (c.kind == Call::write && c.id != FF_GAIN && c.value != 0)) out.push_back(c);
+      if (c.kind == Call::upload || (c.kind == Call::write && (c.id == FF_GAIN || c.value != 0))) out.push_back(c);
     return out;
   }
   static std::vector<Call> plays(const FakeDeviceState& s) {
@@ -239,9 +239,9 @@ TEST_F(Engine, OnsetsBeforeAttachGiveNoKick) {
 }
 
 TEST_F(Engine, PerBusIntervalsAreNeverViolatedOverTenThousandPolls) {
-  auto usb = pad("/dev/input/event1", {FF_RUMBLE}, 16, BUS_USB);
-  auto bt = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE}, 16, BUS_BLUETOOTH);
-  auto virt = pad("/dev/input/event3", {FF_RUMBLE}, 16, BUS_VIRTUAL);
+  auto usb = pad("/dev/input/event1", {FF_RUMBLE, FF_GAIN}, 16, BUS_USB);
+  auto bt = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16, BUS_BLUETOOTH);
+  auto virt = pad("/dev/input/event3", {FF_RUMBLE, FF_GAIN}, 16, BUS_VIRTUAL);
   settings.pacing.other = 7ms;
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
   engine().attach(1, "/dev/input/event2", {{0, kPlane}});
@@ -250,6 +250,7 @@ TEST_F(Engine, PerBusIntervalsAreNeverViolatedOverTenThousandPolls) {
     const double f = 1.0 + std::sin(i * 0.05);
     board.publish(0, push(f, 0.3 * f, i % 97 == 0, 0.001 * (i % 5)));
     board.beat();
+    if (i == 5000) engine().configure(settings);  // SIGHUP: FF_GAIN again, paced too
     poll_at(t0 + std::chrono::milliseconds(2 * i));  // polls faster than any interval
   }
   struct Case { const FakeDeviceState* d; std::chrono::milliseconds interval; };
@@ -678,17 +679,28 @@ TEST_F(Engine, ShutdownStopsAndErasesEveryDevice) {
 TEST_F(Engine, ConfigureChangesGainAndPacing) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_GAIN}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  engine().poll(t0);  // the constant's id first
+  EXPECT_TRUE(pad->of(Call::write).empty());
+  engine().poll(t0 + 10ms);  // then FF_GAIN: a write like any other, paced
+  ASSERT_EQ(pad->of(Call::write).size(), 1u);
+  EXPECT_EQ(pad->of(Call::write)[0].id, FF_GAIN);
   HapticsSettings s = settings;
   s.gain = 0x2000;
   s.pacing.other = 100ms;
   engine().configure(s);
-  bool gain_written = false;
-  for (const auto& w : pad->of(Call::write)) gain_written |= (w.id == FF_GAIN && w.value == 0x2000);
-  EXPECT_TRUE(gain_written);
+  auto gain_written = [&] {
+    for (const auto& w : pad->of(Call::write))
+      if (w.id == FF_GAIN && w.value == 0x2000) return true;
+    return false;
+  };
+  EXPECT_FALSE(gain_written()) << "paced: not inside the interval";
   engine().poll(t0 + 50ms);
-  EXPECT_EQ(plays(*pad).size(), 0u);  // 100 ms now
-  engine().poll(t0 + 100ms);
+  EXPECT_FALSE(gain_written()) << "100 ms now";
+  engine().poll(t0 + 110ms);
+  EXPECT_TRUE(gain_written());
+  engine().poll(t0 + 150ms);
+  EXPECT_EQ(plays(*pad).size(), 0u);
+  engine().poll(t0 + 210ms);
   EXPECT_EQ(plays(*pad).size(), 1u);
 }
 

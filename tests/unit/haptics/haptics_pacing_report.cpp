@@ -49,7 +49,7 @@ class TimedPort final : public FfPort {
   }
   int erase(std::int16_t id) override { return inner_.erase(id); }
   int write_ff(std::uint16_t code, std::int32_t value) override {
-    if (code != FF_GAIN && value != 0) record(false);
+    if (code == FF_GAIN || value != 0) record(false);  // FF_GAIN too: memless drivers send a report
     return inner_.write_ff(code, value);
   }
   const std::string& node() const override { return inner_.node(); }
@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
   std::map<std::string, std::vector<Report>> logs;
   std::map<std::string, std::shared_ptr<testing::FakeDeviceState>> states;
   for (const auto& p : pads) {
-    auto s = p.constant ? testing::fake_device({FF_CONSTANT, FF_RUMBLE}, 16) : testing::fake_device({FF_RUMBLE}, 16);
+    auto s = p.constant ? testing::fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16)
+                        : testing::fake_device({FF_RUMBLE, FF_GAIN}, 16);
     s->identity.bustype = p.bus;
     states[p.node] = s;
     logs[p.node];
