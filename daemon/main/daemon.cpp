@@ -419,7 +419,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
 
   void stop_threads() {
     if (server_) server_->close();  // no client reads the published state any more
-    board_->set_hold(haptics::Hold::stopped);  // zero felt before the sim thread stops beating
+    if (board_) board_->set_hold(haptics::Hold::stopped);  // zero felt before the sim thread stops beating
     sims_.stop();
     if (keeper_) keeper_->stop();  // after the sim thread: it takes everything it did
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
