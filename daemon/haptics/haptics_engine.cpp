@@ -223,13 +223,23 @@ bool HapticsEngine::silent(Clock::time_point now) {
 void HapticsEngine::watch_suspend(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime) {
   if (!boottime) return;
   const auto offset = *boottime - std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch());
-  const bool jumped = boot_offset_ && offset - *boot_offset_ > kSuspendJump;
+  const auto previous = boot_offset_;
+  const bool jumped = previous && offset - *previous > kSuspendJump;
   boot_offset_ = offset;
-  if (!jumped) return;
+  if (jumped)
+    resumed(now, "CLOCK_BOOTTIME jumped " +
+                     std::to_string(std::chrono::duration_cast<std::chrono::seconds>(offset - *previous).count()) +
+                     " s ahead of CLOCK_MONOTONIC");
+}
+
+void HapticsEngine::resumed(Clock::time_point now, const std::string& how) {
+  constexpr auto kSameResume = std::chrono::seconds(5);
+  if (last_resume_ && now - *last_resume_ < kSameResume) return;
+  last_resume_ = now;
   // Drivers may have lost their state over a suspend (a pad reconnected,
   // firmware reset): reopen every device, which uploads a fresh neutral state.
   stats_.resumes.fetch_add(1, std::memory_order_relaxed);
-  say(kInfo, "resumed from suspend: reopening the force-feedback devices");
+  say(kInfo, "resumed from suspend (" + how + "): reopening the force-feedback devices");
   for (auto& [slot, d] : devices_)
     if (d.ff) reopen(d);
 }

@@ -120,6 +120,10 @@ class HapticsEngine {
   // since boot) lets the engine see a suspend: BOOTTIME runs on through it,
   // the monotonic clock does not.
   void poll(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime = std::nullopt);
+  // The machine resumed from suspend (logind's PrepareForSleep(false), or a
+  // BOOTTIME jump): reopen every device, which sends a fresh neutral state.
+  // A second report of the same resume (within 5 s) is ignored.
+  void resumed(Clock::time_point now, const std::string& how);
   // Stop and erase every effect of every device, close them. Idempotent.
   void shutdown();
 
@@ -175,6 +179,7 @@ class HapticsEngine {
   Hold last_hold_ = Hold::none;
   bool stalled_ = false;
   std::optional<std::chrono::nanoseconds> boot_offset_;  // CLOCK_BOOTTIME − CLOCK_MONOTONIC
+  std::optional<Clock::time_point> last_resume_;
 };
 
 }  // namespace sculpt::haptics

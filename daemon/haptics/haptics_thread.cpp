@@ -58,6 +58,8 @@ void HapticsThread::tune(int slot, DeviceTuning t) {
   push(Tune{slot, t});
 }
 
+void HapticsThread::resumed() { push(Resumed{}); }
+
 DeviceTuning HapticsThread::tuning(int slot) const {
   if (slot < 0 || slot >= HapticsStats::kSlots) return {};
   const auto i = static_cast<std::size_t>(slot);
@@ -110,6 +112,8 @@ void HapticsThread::run() {
         poll_interval_ = s->settings.poll_interval;
       } else if (auto* t = std::get_if<Tune>(&c)) {
         engine_.tune(t->slot, t->tuning);
+      } else if (std::holds_alternative<Resumed>(c)) {
+        engine_.resumed(Clock::now(), "logind PrepareForSleep");
       }
     }
     batch.clear();

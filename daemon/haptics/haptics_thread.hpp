@@ -49,6 +49,9 @@ class HapticsThread {
   void tune(int slot, DeviceTuning t);
   // Any thread: the slot's tuning in force (a tune is seen at once).
   DeviceTuning tuning(int slot) const;
+  // Any thread: the machine resumed from suspend (logind): devices are
+  // reopened with a neutral state at the next poll.
+  void resumed();
   // Any thread: the attached device's input_id.bustype; 0 when unknown.
   std::uint16_t bustype(int slot) const;
 
@@ -63,7 +66,8 @@ class HapticsThread {
   struct Detach { int slot; };
   struct Configure { HapticsSettings settings; };
   struct Tune { int slot; DeviceTuning tuning; };
-  using Command = std::variant<Attach, Detach, Configure, Tune>;
+  struct Resumed {};
+  using Command = std::variant<Attach, Detach, Configure, Tune, Resumed>;
 
   void run();
   void push(Command c);

@@ -17,6 +17,7 @@
 #include "client/socket_path.hpp"
 #include "haptics/feedback_board.hpp"
 #include "haptics/haptics_thread.hpp"
+#include "main/sleep_watch.hpp"
 #include "input/mapping.hpp"
 #include "loop/compaction.hpp"
 #include "loop/preemption.hpp"
@@ -113,6 +114,11 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     hub_.use_scene(sims_.scene(), sims_.tools(), sims_.stages(), sims_.rate());
     haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
     haptics_->start();
+    // Pads may lose their FF state over a suspend: reopened at the resume.
+    sleep_ = std::make_unique<SleepWatch>([h = haptics_.get()](bool sleeping) {
+      if (!sleeping) h->resumed();
+    });
+    sleep_->start();
     hub_.set_haptics(haptics_.get());
     desk_.set_haptics(haptics_.get());
     desk_.set_keeper(keeper_.get());
@@ -422,6 +428,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     if (board_) board_->set_hold(haptics::Hold::stopped);  // zero felt before the sim thread stops beating
     sims_.stop();
     if (keeper_) keeper_->stop();  // after the sim thread: it takes everything it did
+    sleep_.reset();                  // before the haptics thread it tells about resumes
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
   }
 
@@ -460,6 +467,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   DeviceHub hub_;
   ControlDesk desk_;
   std::unique_ptr<haptics::HapticsThread> haptics_;
+  std::unique_ptr<SleepWatch> sleep_;  // after haptics_: destroyed first
   std::unique_ptr<InputSource> input_;  // after hub_, its devices' listener: destroyed first
   BlowupLog blowups_;
   std::unique_ptr<JournalTap> tap_;

@@ -455,6 +455,24 @@ TEST_F(Engine, BoottimeJumpReopensAndSendsANeutralState) {
   EXPECT_EQ(d->live(), 1);
 }
 
+TEST_F(Engine, LogindResumeAndTheBoottimeJumpReopenOnce) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  const auto boot = [](Clock::time_point t, std::chrono::nanoseconds slept) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()) + 1000s + slept;
+  };
+  poll_at(t0, boot(t0, 0s));
+  engine().resumed(t0 + 4ms, "logind PrepareForSleep");  // the signal came first
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  poll_at(t0 + 8ms, boot(t0 + 8ms, 600s));  // the same resume, seen by BOOTTIME
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  EXPECT_EQ(stats.resumes.load(), 1u);
+  poll_at(t0 + 60s, boot(t0 + 60s, 1200s));  // a later suspend
+  EXPECT_EQ(opens["/dev/input/event1"], 3);
+  EXPECT_EQ(stats.resumes.load(), 2u);
+  EXPECT_EQ(d->live(), 1);
+}
+
 TEST_F(Engine, FirstUploadEnodevIsRetriedUntilReadyWithoutError) {
   std::vector<std::pair<int, std::string>> lines;
   auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);

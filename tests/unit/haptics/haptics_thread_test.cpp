@@ -91,6 +91,9 @@ TEST(HapticsThread, TuneFromAnyThreadSeenAtOnceKeptAcrossReplug) {
   thread.configure(HapticsSettings{});  // SIGHUP: the config again
   thread.flush();
   EXPECT_EQ(thread.tuning(3), DeviceTuning{});
+  thread.resumed();  // logind: back from suspend
+  thread.flush();
+  EXPECT_EQ(thread.stats().resumes.load(), 1u);
   thread.stop();
 }
 
