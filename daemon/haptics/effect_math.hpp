@@ -11,6 +11,8 @@
 #include <array>
 #include <cstdint>
 
+#include "haptics/device_tuning.hpp"
+
 namespace sculpt::haptics {
 
 // Which tool axes the stick's x and y drive, and with which sign: moving the
@@ -24,24 +26,29 @@ struct StickPlane {
   double y_sign = 1.0;
 };
 
-// Measured with the default material (k = 200 N/m) and a 2 cm tool: a light
-// touch gives a few mN, a 1–2 cm push 0.1–1.2 N.
+// The contact renderer's range: a light touch gives a few mN to 0.05 N, a
+// 1–2 cm press 0.1–1.2 N. Level (0..1 of the motor) from |f| while touching:
+//   min_level + (1 − min_level) · min(|f| / full_scale_newton, 1)^exponent
+// so the first touch is felt (no dead band), the level rises monotonically
+// with the force, and saturates at full_scale_newton. exponent < 1 spreads
+// the light end (0.05 N of 1.2 N is 20 % of the span at 0.5, not 4 %).
 struct ForceScale {
-  double full_scale_newton = 1.0;  // |f| at which the level saturates (0x7fff)
-  double dead_band_newton = 0.02;  // |f| below this: level 0 (contact noise is not felt)
-  double max_level = 0x7fff;       // the clamp; lower it to cap the motor
+  double full_scale_newton = 1.2;  // |f| at which the level saturates
+  double min_level = 0.12;         // the level of the lightest touch: felt
+  double exponent = 0.5;           // the curve; 1 = linear
 };
 
-// The sim's onset impulse is |force|·dt of the first contact tick, and a first
-// contact is shallow: a few µN·s for a slow approach, some mN·s for a hard tap
-// (at 1 kHz). So every onset gets at least min_strength, and harder ones more,
-// up to full strength at full_scale_impulse.
+// The onset kick: every onset gets at least min_strength, harder ones more,
+// up to full strength at full_scale_impulse. It is a short burst of mostly
+// the strong (low, thudding) motor, distinct from the continuous contact
+// rumble, which is mostly the weak (fine, buzzing) motor.
 struct RumbleScale {
   double full_scale_impulse = 0.002;  // N·s for a full strong magnitude
   double min_impulse = 1e-7;          // below this an onset gives no kick
-  double weak_ratio = 0.5;            // weak motor = ratio · strong
-  std::uint16_t length_ms = 60;       // a short kick
-  double min_strength = 0.3;          // of full: the faintest kick (0 = purely proportional)
+  double weak_ratio = 0.5;            // kick: weak motor = ratio · strong
+  std::uint16_t length_ms = 40;       // a short kick
+  double min_strength = 0.5;          // of full: the faintest kick (0 = purely proportional)
+  double contact_strong_ratio = 0.25; // continuous rumble: strong motor = ratio · weak
 };
 
 // The stick-frame force (x right, y down), N.
@@ -67,17 +74,29 @@ struct RumbleCommand {
 // Tool force (sim axes) → the force the stick should feel. Non-finite → zero.
 StickForce project_to_stick(const std::array<double, 3>& tool_force, const StickPlane& plane);
 
-// Stick force → FF_CONSTANT level and direction (dead band, scaling, clamping).
-// A zero level keeps direction 0.
-ConstantCommand constant_from_force(StickForce f, const ForceScale& scale);
+// |f| (N) while touching → level 0..1 (see ForceScale). Not touching, or a
+// non-finite force: 0.
+double level_from_force(double newton, bool touching, const ForceScale& scale);
+
+// Gain, then the hard limit: min(level · gain, limit), in 0..1.
+double tuned(double level, const DeviceTuning& tuning);
+
+// Stick force and a tuned level (0..1) → FF_CONSTANT level and direction.
+// A zero level, or no direction (zero force), gives {0, 0}.
+ConstantCommand constant_from_level(StickForce f, double level);
+
+// Continuous contact rumble at a tuned level (0..1): weak motor at the level,
+// strong at contact_strong_ratio of it.
+RumbleCommand rumble_from_level(double level, const RumbleScale& scale);
 
 // The stick-frame force a (level, direction) pair makes on a memoryless device
 // (the inverse, for tests and docs): x = L·sin θ, y = −L·cos θ.
 StickForce force_from_constant(const ConstantCommand& c);
 
 // Onset impulse (N·s) → a short FF_RUMBLE kick: strength min_strength +
-// (1 − min_strength)·min(impulse / full_scale_impulse, 1); none below min_impulse.
-RumbleCommand rumble_from_impulse(double impulse, const RumbleScale& scale);
+// (1 − min_strength)·min(impulse / full_scale_impulse, 1), then tuned (gain,
+// limit: never above the limit); none below min_impulse.
+RumbleCommand rumble_from_impulse(double impulse, const RumbleScale& scale, const DeviceTuning& tuning = {});
 
 // Whether `next` differs enough from what the device already has to be worth
 // an upload: the level moved by at least level_step, or (while either is felt)
@@ -88,5 +107,8 @@ struct ChangeThreshold {
   int direction_step = 0x0200;    // of 0x10000 (≈ 2.8°)
 };
 bool is_real_change(const ConstantCommand& current, const ConstantCommand& next, const ChangeThreshold& t);
+// The same for rumble magnitudes: either motor moved by 2 · level_step (of
+// 0xffff), or to or from zero.
+bool is_real_change(const RumbleCommand& current, const RumbleCommand& next, const ChangeThreshold& t);
 
 }  // namespace sculpt::haptics

@@ -8,13 +8,14 @@ namespace sculpt::haptics {
 FfDevice::FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options, FfCounters* counters)
     : port_(std::move(port)), options_(options), counters_(counters) {
   caps_ = port_->caps();
+  identity_ = port_->identity();
   const bool has_room = caps_.effects_max > 0;
   const bool constant_ok = options_.constant && has_room && caps_.has(FF_CONSTANT);
   rumble_has_ = options_.rumble && has_room && caps_.has(FF_RUMBLE);
   mode_ = constant_ok ? FfMode::constant : rumble_has_ ? FfMode::rumble_only : FfMode::none;
   // Room for one effect only: the constant force takes it; kicks need a second id.
   rumble_ok_ = rumble_has_ && (mode_ == FfMode::rumble_only || caps_.effects_max >= 2);
-  if (mode_ != FfMode::none) set_gain(options_.gain);
+  if (mode_ != FfMode::none && options_.gain_at_open) set_gain(options_.gain);
 }
 
 std::unique_ptr<FfDevice> FfDevice::open(const std::string& node, const FfDeviceOptions& options,
@@ -29,6 +30,10 @@ bool FfDevice::rumble_allowed() const { return rumble_ok_ && !gone_ && !shut_; }
 const std::string& FfDevice::node() const { return port_->node(); }
 
 void FfDevice::count_error(int err) {
+  if (err == ENODEV && wait_for_ready_ && !ready_seen_) {
+    not_ready_ = true;  // not created yet: the caller retries, nothing is wrong
+    return;
+  }
   if (err == ENODEV) gone_ = true;
   if (counters_) counters_->errors.fetch_add(1, std::memory_order_relaxed);
 }
@@ -37,13 +42,15 @@ void FfDevice::add_live(int delta) {
   if (counters_) counters_->live_effects.fetch_add(delta, std::memory_order_relaxed);
 }
 
-void FfDevice::set_gain(std::uint16_t gain) {
+bool FfDevice::set_gain(std::uint16_t gain) {
   options_.gain = gain;
-  if (gone_ || shut_ || !caps_.has(FF_GAIN)) return;
+  if (gone_ || shut_ || !caps_.has(FF_GAIN)) return false;
   if (const int err = port_->write_ff(FF_GAIN, gain)) count_error(err);
+  return true;
 }
 
 int FfDevice::upload(ff_effect& e, std::int16_t& id) {
+  not_ready_ = false;
   e.id = id;
   const int err = port_->upload(e);
   if (err) return err;
@@ -51,6 +58,7 @@ int FfDevice::upload(ff_effect& e, std::int16_t& id) {
     id = e.id;
     add_live(1);
   }
+  ready_seen_ = true;
   ++uploads_;
   if (counters_) counters_->uploads.fetch_add(1, std::memory_order_relaxed);
   return 0;
@@ -74,12 +82,14 @@ bool FfDevice::erase(std::int16_t& id) {
   return ok;
 }
 
-bool FfDevice::set_constant(const ConstantCommand& c) {
-  if (mode_ != FfMode::constant || gone_ || shut_) return false;
+bool FfDevice::upload_constant(const ConstantCommand& c, std::uint16_t length_ms) {
+  if (mode_ != FfMode::constant || !usable()) return false;
   ff_effect e{};
   e.type = FF_CONSTANT;
   e.direction = c.direction;
-  e.replay.length = 0;  // 0 plays until stopped: the level is updated in place instead
+  // Finite: some drivers end a length-0 ("infinite") effect after ~65 s
+  // anyway; the caller re-arms it well before this runs out.
+  e.replay.length = length_ms;
   e.u.constant.level = c.level;
 
   for (int attempt = 0; attempt < 2; ++attempt) {
@@ -87,12 +97,6 @@ bool FfDevice::set_constant(const ConstantCommand& c) {
     const int err = upload(e, constant_id_);
     if (err == 0) {
       current_ = c;
-      if (fresh) {
-        if (const int perr = port_->write_ff(static_cast<std::uint16_t>(constant_id_), 1)) {
-          count_error(perr);
-          return false;
-        }
-      }
       return true;
     }
     count_error(err);
@@ -103,7 +107,7 @@ bool FfDevice::set_constant(const ConstantCommand& c) {
       continue;
     }
     if (err == EINVAL && fresh) {
-      // The device refuses constant force after all: rumble kicks only.
+      // The device refuses constant force after all: rumble only.
       mode_ = rumble_has_ ? FfMode::rumble_only : FfMode::none;
       rumble_ok_ = rumble_has_;
       return false;
@@ -115,13 +119,13 @@ bool FfDevice::set_constant(const ConstantCommand& c) {
       if (gone_) return false;
       continue;
     }
-    return false;  // ENODEV, ENOSPC with nothing to give up, or anything else: retried on a later change
+    return false;  // ENODEV, ENOSPC with nothing to give up, or anything else: retried later
   }
   return false;
 }
 
-bool FfDevice::kick(const RumbleCommand& r) {
-  if (!rumble_allowed() || !r.any()) return false;
+bool FfDevice::upload_rumble(const RumbleCommand& r) {
+  if (!rumble_allowed()) return false;
   ff_effect e{};
   e.type = FF_RUMBLE;
   e.replay.length = r.length_ms;
@@ -132,11 +136,7 @@ bool FfDevice::kick(const RumbleCommand& r) {
     const bool fresh = rumble_id_ < 0;
     const int err = upload(e, rumble_id_);
     if (err == 0) {
-      if (const int perr = port_->write_ff(static_cast<std::uint16_t>(rumble_id_), 1)) {
-        count_error(perr);
-        return false;
-      }
-      if (counters_) counters_->kicks.fetch_add(1, std::memory_order_relaxed);
+      current_rumble_ = r;
       return true;
     }
     count_error(err);
@@ -145,10 +145,25 @@ bool FfDevice::kick(const RumbleCommand& r) {
       add_live(-1);
       continue;
     }
-    if ((err == EINVAL || err == ENOSPC) && fresh) rumble_ok_ = false;  // refused, or no id free for it
+    if ((err == EINVAL || err == ENOSPC) && fresh) {
+      rumble_ok_ = false;  // refused, or no id free for it
+      if (mode_ == FfMode::rumble_only) mode_ = FfMode::none;
+    }
     return false;
   }
   return false;
+}
+
+bool FfDevice::play(Effect which) {
+  const std::int16_t id = which == Effect::constant ? constant_id_ : rumble_id_;
+  if (id < 0 || !usable()) return false;
+  not_ready_ = false;
+  if (const int err = port_->write_ff(static_cast<std::uint16_t>(id), 1)) {
+    count_error(err);
+    return false;
+  }
+  ready_seen_ = true;
+  return true;
 }
 
 void FfDevice::shutdown() {

@@ -10,6 +10,12 @@
 //                                             rumble-only pads); a constant that still cannot get one
 //                                             fails (counted) and the caller retries it later
 //   ENODEV                                 → unplugged: stop issuing anything; forget() drops the ids
+//   ENODEV before anything succeeded, while wait_for_ready(true)
+//                                          → not ready yet (uinput between the node appearing and the
+//                                             device being created): not an error, not gone; retry
+//
+// Every call below is ONE write to the driver (an upload or a play), so that
+// the caller can pace them per transport.
 #pragma once
 
 #include <atomic>
@@ -34,13 +40,14 @@ struct FfCounters {
 enum class FfMode {
   none,          // no usable FF: input only
   constant,      // FF_CONSTANT (+ FF_RUMBLE kicks when there is an id for them)
-  rumble_only,   // FF_RUMBLE kicks only
+  rumble_only,   // FF_RUMBLE: continuous contact rumble and kicks through one effect
 };
 
 struct FfDeviceOptions {
   std::uint16_t gain = 0xffff;  // FF_GAIN, written once when the device supports it
+  bool gain_at_open = true;     // false: the caller writes it (set_gain), paced with the rest
   bool constant = true;         // allow FF_CONSTANT
-  bool rumble = true;           // allow FF_RUMBLE kicks
+  bool rumble = true;           // allow FF_RUMBLE (kicks; the force itself on rumble-only pads)
 };
 
 class FfDevice {
@@ -56,18 +63,32 @@ class FfDevice {
 
   FfMode mode() const { return mode_; }
   const FfCaps& caps() const { return caps_; }
+  const DeviceIdentity& identity() const { return identity_; }
   bool rumble_allowed() const;  // kicks possible in this mode (an id, a bit, the option)
   const std::string& node() const;
 
-  // Uploads the constant force (first time with id −1 and starts it playing
-  // forever, then in place with the same id). Returns whether the device now
-  // has `c`. No-op returning false when the mode has no constant force.
-  bool set_constant(const ConstantCommand& c);
-  // Uploads (or updates in place) the rumble effect and plays it once.
-  bool kick(const RumbleCommand& r);
+  // Uploads the constant force with this replay length (first time with id
+  // −1, then in place with the same id). Returns whether the device now has
+  // `c`. False without a write when the mode has no constant force.
+  bool upload_constant(const ConstantCommand& c, std::uint16_t length_ms);
+  // Uploads the rumble effect (new or in place) with r.length_ms. In
+  // constant mode it is the kick; in rumble_only mode the one effect.
+  bool upload_rumble(const RumbleCommand& r);
+  enum class Effect { constant, rumble };
+  // EV_FF id 1: (re)starts the effect; its replay length counts from now.
+  bool play(Effect e);
+  bool holds(Effect e) const { return (e == Effect::constant ? constant_id_ : rumble_id_) >= 0; }
 
-  // FF_GAIN (0..0xffff), when the device has it.
-  void set_gain(std::uint16_t gain);
+  // An ENODEV before the first success means "not ready yet", not unplugged.
+  void wait_for_ready(bool on) { wait_for_ready_ = on; }
+  // The last write answered ENODEV as "not ready yet".
+  bool not_ready() const { return not_ready_; }
+  // Some write has succeeded since the device was opened.
+  bool ready_seen() const { return ready_seen_; }
+
+  // FF_GAIN (0..0xffff), when the device has it: one write. Returns whether
+  // it wrote.
+  bool set_gain(std::uint16_t gain);
 
   // Stops and erases every effect this device holds. Idempotent.
   void shutdown();
@@ -83,9 +104,11 @@ class FfDevice {
   std::uint64_t uploads() const { return uploads_; }
   // The constant the device has now (valid while constant_id() >= 0).
   const ConstantCommand& current_constant() const { return current_; }
+  const RumbleCommand& current_rumble() const { return current_rumble_; }
 
  private:
   int upload(ff_effect& e, std::int16_t& id);  // the state machine step; 0 or errno
+  bool usable() const { return !gone_ && !shut_; }
   bool erase(std::int16_t& id);
   void count_error(int err);
   void add_live(int delta);
@@ -94,6 +117,7 @@ class FfDevice {
   FfDeviceOptions options_;
   FfCounters* counters_;
   FfCaps caps_;
+  DeviceIdentity identity_;
   FfMode mode_ = FfMode::none;
   bool rumble_ok_ = false;
   bool gone_ = false;
@@ -103,6 +127,10 @@ class FfDevice {
   std::int16_t constant_id_ = -1;
   std::int16_t rumble_id_ = -1;
   ConstantCommand current_{};
+  RumbleCommand current_rumble_{};
+  bool wait_for_ready_ = false;
+  bool not_ready_ = false;
+  bool ready_seen_ = false;
 };
 
 }  // namespace sculpt::haptics

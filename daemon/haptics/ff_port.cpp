@@ -40,6 +40,19 @@ class EvdevFfPort final : public FfPort {
     return caps;
   }
 
+  DeviceIdentity identity() override {
+    DeviceIdentity out;
+    input_id id{};
+    if (::ioctl(fd_, EVIOCGID, &id) >= 0) {
+      out.bustype = id.bustype;
+      out.vendor = id.vendor;
+      out.product = id.product;
+    }
+    char name[256] = {};
+    if (::ioctl(fd_, EVIOCGNAME(sizeof name - 1), name) >= 0) out.name = name;
+    return out;
+  }
+
   int upload(ff_effect& effect) override {
     while (::ioctl(fd_, EVIOCSFF, &effect) < 0) {
       if (errno != EINTR) return errno;

@@ -18,6 +18,15 @@ struct FfCaps {
   bool any_effect() const { return has(FF_CONSTANT) || has(FF_RUMBLE); }
 };
 
+// EVIOCGID + EVIOCGNAME: which device, and over which transport (BUS_USB,
+// BUS_BLUETOOTH, ...; 0 when unknown).
+struct DeviceIdentity {
+  std::uint16_t bustype = 0;
+  std::uint16_t vendor = 0;
+  std::uint16_t product = 0;
+  std::string name;
+};
+
 class FfPort {
  public:
   virtual ~FfPort() = default;
@@ -29,6 +38,7 @@ class FfPort {
   virtual int erase(std::int16_t id) = 0;
   // An EV_FF event: code = effect id (value 0 stop, n play n times) or FF_GAIN.
   virtual int write_ff(std::uint16_t code, std::int32_t value) = 0;
+  virtual DeviceIdentity identity() { return {}; }
   // Where it is, for messages.
   virtual const std::string& node() const = 0;
 };

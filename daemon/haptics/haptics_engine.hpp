@@ -1,12 +1,13 @@
 // The haptics thread's work, without the thread: attached devices, the tools
-// each one feels, and per poll the decision what to upload. Single-threaded;
+// each one feels, and per poll what each device should play. Single-threaded;
 // HapticsThread drives it. Tests drive it directly with a fake FfPort and an
-// explicit clock.
+// explicit clock (and an explicit CLOCK_BOOTTIME reading for suspend).
 #pragma once
 
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -14,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "haptics/device_player.hpp"
+#include "haptics/device_tuning.hpp"
 #include "haptics/effect_math.hpp"
 #include "haptics/feedback_board.hpp"
 #include "haptics/ff_device.hpp"
@@ -28,16 +31,34 @@ struct ToolStick {
   StickPlane plane{};
 };
 
+// Which devices a [[haptics.device]] override is for: every given field
+// must match (vendor and product exactly, name as a substring).
+struct DeviceMatch {
+  std::optional<std::uint16_t> vendor;
+  std::optional<std::uint16_t> product;
+  std::string name;  // empty: any
+  bool matches(const DeviceIdentity& id) const;
+};
+struct DeviceOverride {
+  DeviceMatch match;
+  DeviceTuning tuning;
+};
+
 struct HapticsSettings {
   bool enabled = true;                                  // false: no device is opened for FF
   std::chrono::milliseconds poll_interval{4};           // how often the thread reads the board
-  std::chrono::milliseconds min_upload_interval{25};    // per device, between uploads
+  TransportPacing pacing{};                             // per device, between any two writes
+  std::chrono::milliseconds stall_after{15};            // board beats still this long: the sim thread stalled
+  std::chrono::milliseconds effect_length{20000};       // replay.length of the force effect (< 65 s)
+  std::chrono::milliseconds rearm_every{5000};          // it is replayed this often while it plays
   ForceScale force{};
   RumbleScale rumble{};
   ChangeThreshold change{};
   std::uint16_t gain = 0xffff;                          // FF_GAIN
   bool constant = true;                                 // FF_CONSTANT from the contact force
-  bool rumble_on_onset = true;                          // FF_RUMBLE kick when contact begins
+  bool rumble_on_onset = true;                          // a kick when contact begins
+  DeviceTuning tuning{};                                // every device's gain and limit...
+  std::vector<DeviceOverride> devices;                  // ...unless the first matching override says otherwise
 };
 
 // Opens an event node for FF; the default is open_evdev_port.
@@ -53,10 +74,25 @@ struct HapticsStats {
   std::atomic<int> devices{0};                // devices attached (FF or not)
   std::atomic<int> ff_devices{0};             // of those, with usable FF
   std::atomic<std::uint64_t> open_failures{0};
-  // Successful uploads per device slot (the input layer's slots, which a
-  // replugged device keeps), counted since the daemon started.
+  // A freshly attached (or reopened) device's first write: succeeded, or
+  // failed with an error; "not ready yet" answers (ENODEV from a uinput
+  // device not created yet) are retried and counted apart, not as errors.
+  std::atomic<std::uint64_t> first_uploads{0};
+  std::atomic<std::uint64_t> first_upload_failures{0};
+  std::atomic<std::uint64_t> not_ready_retries{0};
+  std::atomic<std::uint64_t> stalls{0};       // sim thread stalls seen (effects zeroed)
+  std::atomic<std::uint64_t> resumes{0};      // resumes from suspend seen (devices reopened)
+  // Per device slot (the input layer's slots, which a replugged device keeps).
   static constexpr int kSlots = 16;
-  std::array<std::atomic<std::uint64_t>, kSlots> slot_uploads{};
+  std::array<std::atomic<std::uint64_t>, kSlots> slot_uploads{};       // successful uploads since start
+  std::array<std::atomic<std::int64_t>, kSlots> slot_first_upload_ns{}; // latest attach → its first success
+  std::array<std::atomic<std::uint16_t>, kSlots> slot_bustype{};       // 0: unknown / nothing attached
+  std::array<std::atomic<double>, kSlots> slot_gain{};                 // the slot's DeviceTuning in force
+  std::array<std::atomic<double>, kSlots> slot_limit{};
+  HapticsStats() {
+    for (auto& g : slot_gain) g.store(1.0);
+    for (auto& l : slot_limit) l.store(1.0);
+  }
 };
 
 class HapticsEngine {
@@ -71,24 +107,39 @@ class HapticsEngine {
   void attach(int slot, const std::string& node, std::vector<ToolStick> tools);
   // Unplugged: the kernel already dropped its effects; forget the ids.
   void detach(int slot);
+  // SIGHUP: new settings; run-time tunes are dropped (the config rules again).
   void configure(const HapticsSettings& settings);
+  // Run-time gain and limit for a slot, kept across replug until configure().
+  // Throws std::invalid_argument (naming the field, or the slot).
+  void tune(int slot, DeviceTuning t);
+  // The tuning in force for the slot: a run-time tune, else the config's for
+  // the device attached there (overrides), else the [haptics] default.
+  DeviceTuning tuning(int slot) const;
 
-  // Reads the board and uploads what is due.
-  void poll(Clock::time_point now);
+  // Reads the board and writes what is due. `boottime` (CLOCK_BOOTTIME,
+  // since boot) lets the engine see a suspend: BOOTTIME runs on through it,
+  // the monotonic clock does not.
+  void poll(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime = std::nullopt);
+  // The machine resumed from suspend (logind's PrepareForSleep(false), or a
+  // BOOTTIME jump): reopen every device, which sends a fresh neutral state.
+  // A second report of the same resume (within 5 s) is ignored.
+  void resumed(Clock::time_point now, const std::string& how);
   // Stop and erase every effect of every device, close them. Idempotent.
   void shutdown();
 
   // For tests and logs.
   const FfDevice* device(int slot) const;
+  const DevicePlayer* player(int slot) const;
   const std::string& last_error() const { return last_error_; }
+  bool stalled() const { return stalled_; }
 
  private:
   struct Attached {
+    int slot = 0;
     std::string node;
     std::vector<ToolStick> tools;
     std::unique_ptr<FfDevice> ff;  // null: no FF (or it could not be opened)
-    ConstantPacer constant;
-    KickPacer kick;
+    DevicePlayer player;
     std::vector<std::uint64_t> onsets_seen;  // per tool: the board's onset counter at the last poll
     bool primed = false;                     // onsets before the first poll give no kick
     // ENODEV while the input layer still has the device plugged in: when it
@@ -96,13 +147,22 @@ class HapticsEngine {
     std::optional<Clock::time_point> gone_since;
     int reopens = 0;
     std::uint64_t uploads_counted = 0;  // of ff->uploads(), already in slot_uploads
+    std::optional<Clock::time_point> opened_at;  // the first poll after the open
+    bool first_settled = false;                  // the first write succeeded or failed
   };
   void open_ff(Attached& d);
   void detach_alive(int slot);
   void say(int priority, const std::string& message) const;
-  void poll_device(Attached& d, Clock::time_point now);
+  bool silent(Clock::time_point now);
+  void watch_suspend(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime);
+  void poll_device(Attached& d, Clock::time_point now, bool silent);
+  void watch_first_write(Attached& d, Clock::time_point now, bool attempted);
   void reopen_if_still_plugged(Attached& d, Clock::time_point now);
+  void reopen(Attached& d);
   void count_uploads(int slot, Attached& d);
+  PlayerTiming timing_for(const Attached& d) const;
+  DeviceTuning config_tuning(const Attached* d) const;
+  void publish_tuning(int slot);
 
   const FeedbackBoard& board_;
   HapticsSettings settings_;
@@ -110,7 +170,16 @@ class HapticsEngine {
   HapticsStats& stats_;
   LogSink log_;
   std::map<int, Attached> devices_;
+  std::map<int, DeviceTuning> tunes_;  // run-time, per slot
   std::string last_error_;
+  // The sim thread's beat, for stalls.
+  std::uint64_t last_beats_ = 0;
+  bool beats_moved_ = false;
+  Clock::time_point last_beat_at_{};
+  Hold last_hold_ = Hold::none;
+  bool stalled_ = false;
+  std::optional<std::chrono::nanoseconds> boot_offset_;  // CLOCK_BOOTTIME − CLOCK_MONOTONIC
+  std::optional<Clock::time_point> last_resume_;
 };
 
 }  // namespace sculpt::haptics

@@ -1,5 +1,9 @@
 #include "haptics/haptics_thread.hpp"
 
+#include <time.h>
+
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace sculpt::haptics {
@@ -43,6 +47,39 @@ void HapticsThread::attach(int slot, std::string node, std::vector<ToolStick> to
 void HapticsThread::detach(int slot) { push(Detach{slot}); }
 void HapticsThread::configure(const HapticsSettings& settings) { push(Configure{settings}); }
 
+void HapticsThread::tune(int slot, DeviceTuning t) {
+  check_tuning(t);
+  if (slot < 0 || slot >= HapticsStats::kSlots)
+    throw std::invalid_argument("slot " + std::to_string(slot) + " is not within [0, " +
+                                std::to_string(HapticsStats::kSlots - 1) + "]");
+  // Seen by tuning() at once; the engine applies it at its next poll.
+  stats_.slot_gain[static_cast<std::size_t>(slot)].store(t.gain, std::memory_order_relaxed);
+  stats_.slot_limit[static_cast<std::size_t>(slot)].store(t.limit, std::memory_order_relaxed);
+  push(Tune{slot, t});
+}
+
+void HapticsThread::resumed() { push(Resumed{}); }
+
+DeviceTuning HapticsThread::tuning(int slot) const {
+  if (slot < 0 || slot >= HapticsStats::kSlots) return {};
+  const auto i = static_cast<std::size_t>(slot);
+  return {stats_.slot_gain[i].load(std::memory_order_relaxed), stats_.slot_limit[i].load(std::memory_order_relaxed)};
+}
+
+std::uint16_t HapticsThread::bustype(int slot) const {
+  if (slot < 0 || slot >= HapticsStats::kSlots) return 0;
+  return stats_.slot_bustype[static_cast<std::size_t>(slot)].load(std::memory_order_relaxed);
+}
+
+namespace {
+// CLOCK_BOOTTIME goes on through a suspend; steady_clock (CLOCK_MONOTONIC) does not.
+std::chrono::nanoseconds boottime() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_BOOTTIME, &ts);
+  return std::chrono::seconds(ts.tv_sec) + std::chrono::nanoseconds(ts.tv_nsec);
+}
+}  // namespace
+
 void HapticsThread::flush() {
   std::unique_lock lock(mutex_);
   if (!thread_.joinable()) return;
@@ -73,16 +110,20 @@ void HapticsThread::run() {
       } else if (auto* s = std::get_if<Configure>(&c)) {
         engine_.configure(s->settings);
         poll_interval_ = s->settings.poll_interval;
+      } else if (auto* t = std::get_if<Tune>(&c)) {
+        engine_.tune(t->slot, t->tuning);
+      } else if (std::holds_alternative<Resumed>(c)) {
+        engine_.resumed(Clock::now(), "logind PrepareForSleep");
       }
     }
     batch.clear();
     const auto now = Clock::now();
     if (now >= next) {
-      engine_.poll(now);
+      engine_.poll(now, boottime());
       next += poll_interval_;
       if (next <= now) next = now + poll_interval_;  // fell behind (a slow ioctl): no burst to catch up
     } else {
-      engine_.poll(now);  // woken early by a command or a flush: apply it now, keep the schedule
+      engine_.poll(now, boottime());  // woken early by a command or a flush: apply it now, keep the schedule
     }
     {
       std::lock_guard lock(mutex_);

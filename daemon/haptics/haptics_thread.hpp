@@ -41,7 +41,19 @@ class HapticsThread {
   // Thread-safe; applied at the thread's next wake-up (immediately woken).
   void attach(int slot, std::string node, std::vector<ToolStick> tools);
   void detach(int slot);
-  void configure(const HapticsSettings& settings);  // SIGHUP
+  void configure(const HapticsSettings& settings);  // SIGHUP: also drops run-time tunes
+
+  // Run-time gain and limit for a slot (0..kSlots-1): any thread, applied at
+  // the next poll, kept for the slot across replug until configure().
+  // Throws std::invalid_argument naming the field (or the slot).
+  void tune(int slot, DeviceTuning t);
+  // Any thread: the slot's tuning in force (a tune is seen at once).
+  DeviceTuning tuning(int slot) const;
+  // Any thread: the machine resumed from suspend (logind): devices are
+  // reopened with a neutral state at the next poll.
+  void resumed();
+  // Any thread: the attached device's input_id.bustype; 0 when unknown.
+  std::uint16_t bustype(int slot) const;
 
   // Blocks until every command queued so far has been applied and one poll
   // has run after it (tests and orderly shutdown; never from the sim thread).
@@ -53,7 +65,9 @@ class HapticsThread {
   struct Attach { int slot; std::string node; std::vector<ToolStick> tools; };
   struct Detach { int slot; };
   struct Configure { HapticsSettings settings; };
-  using Command = std::variant<Attach, Detach, Configure>;
+  struct Tune { int slot; DeviceTuning tuning; };
+  struct Resumed {};
+  using Command = std::variant<Attach, Detach, Configure, Tune, Resumed>;
 
   void run();
   void push(Command c);

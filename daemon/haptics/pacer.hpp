@@ -1,65 +1,42 @@
-// When to talk to a device. The kernel does not pace FF uploads (the USB
-// transport does, by coalescing): send only on a real change, and no more
-// often than a per-device interval. Pure decisions with the time passed in:
-// unit-tested without clocks.
+// Transport pacing. Pad firmware gets stuck or crashes when rumble reports
+// come faster than ~10 ms apart over USB or 20–50 ms over Bluetooth, and any
+// write that makes the driver send a report counts: uploads and plays of
+// every effect of the device. So each device has one WritePacer, and every
+// write to it waits for it. Pure decisions with the time passed in.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 
-#include "haptics/effect_math.hpp"
-
 namespace sculpt::haptics {
 
 using Clock = std::chrono::steady_clock;
 
-class ConstantPacer {
- public:
-  ConstantPacer(std::chrono::nanoseconds min_interval, ChangeThreshold threshold)
-      : interval_(min_interval), threshold_(threshold) {}
-
-  // Send `want` now? The first command is sent at once (the device needs its
-  // effect), later ones only when they differ really from what was last sent
-  // and the interval since that send has passed. A change that has to wait is
-  // not lost: it is compared again at the next poll.
-  bool should_send(const ConstantCommand& want, Clock::time_point now) const;
-  void sent(const ConstantCommand& c, Clock::time_point now);
-  // The upload failed: try again (even unchanged) once the interval has passed.
-  void failed(Clock::time_point now);
-  // The device was replugged or its effect vanished: next command goes out.
-  void reset() { has_sent_ = false; }
-
-  const ConstantCommand& last_sent() const { return last_; }
-  void set_interval(std::chrono::nanoseconds interval) { interval_ = interval; }
-  void set_threshold(ChangeThreshold t) { threshold_ = t; }
-
- private:
-  std::chrono::nanoseconds interval_;
-  ChangeThreshold threshold_;
-  bool has_sent_ = false;
-  bool retry_ = false;
-  ConstantCommand last_{};
-  Clock::time_point last_at_{};
+// The minimum time between two writes, per transport (input_id.bustype).
+struct TransportPacing {
+  std::chrono::milliseconds usb{10};        // BUS_USB
+  std::chrono::milliseconds bluetooth{25};  // BUS_BLUETOOTH
+  std::chrono::milliseconds other{10};      // anything else (uinput's BUS_VIRTUAL, unknown = 0, ...)
 };
+std::chrono::milliseconds interval_for_bus(std::uint16_t bustype, const TransportPacing& pacing);
 
-// Onset kicks, per device: an onset on any of its tools asks for one kick,
-// but no more often than the interval; onsets that arrive inside it merge into
-// the next kick (the largest impulse wins) instead of being dropped.
-class KickPacer {
+class WritePacer {
  public:
-  explicit KickPacer(std::chrono::nanoseconds min_interval) : interval_(min_interval) {}
-
-  void onset(double impulse);
-  bool due(Clock::time_point now) const;
-  double pending_impulse() const { return pending_impulse_; }
-  void kicked(Clock::time_point now);
+  explicit WritePacer(std::chrono::nanoseconds interval) : interval_(interval) {}
+  // Whether a write may go out now: the first at once, then interval apart.
+  bool ready(Clock::time_point now) const { return !has_written_ || now - last_at_ >= interval_; }
+  void wrote(Clock::time_point now) {
+    has_written_ = true;
+    last_at_ = now;
+  }
+  // When the next write may go out (now when ready).
+  Clock::time_point next_at(Clock::time_point now) const { return ready(now) ? now : last_at_ + interval_; }
   void set_interval(std::chrono::nanoseconds interval) { interval_ = interval; }
+  std::chrono::nanoseconds interval() const { return interval_; }
 
  private:
   std::chrono::nanoseconds interval_;
-  bool pending_ = false;
-  double pending_impulse_ = 0;
-  bool has_kicked_ = false;
+  bool has_written_ = false;
   Clock::time_point last_at_{};
 };
 

@@ -147,31 +147,73 @@ void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("history_mb", c.store.history_mb, 0.0, 1048576.0);
 }
 
+// One [[haptics.device]] entry: what it matches (at least one of vendor,
+// product, name) and the gain and limit it gets instead of [haptics]'s.
+haptics::DeviceOverride read_device_override(const Path& file, const toml::table& t, std::size_t index,
+                                             const haptics::DeviceTuning& base) {
+  const std::string section = fmt::format("haptics.device[{}]", index);
+  check_keys(file, t, section, {"vendor", "product", "name", "level_gain", "level_limit"});
+  const Reader r{file, t, section};
+  haptics::DeviceOverride o;
+  o.tuning = base;
+  int id = 0;
+  if (r.get("vendor", id, 0, 0xffff)) o.match.vendor = static_cast<std::uint16_t>(id);
+  if (r.get("product", id, 0, 0xffff)) o.match.product = static_cast<std::uint16_t>(id);
+  r.get("name", o.match.name);
+  if (!o.match.vendor && !o.match.product && o.match.name.empty())
+    fail(file, t, section, "needs at least one of vendor, product, name");
+  r.get("level_gain", o.tuning.gain, 0.0, 1.0);
+  r.get("level_limit", o.tuning.limit, 0.0, 1.0);
+  return o;
+}
+
 void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "haptics",
-             {"enabled", "poll_interval_ms", "min_upload_interval_ms", "gain", "constant", "rumble_on_onset",
-              "full_scale_newton", "dead_band_newton", "max_level", "rumble_full_scale_impulse",
-              "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step"});
+             {"enabled", "poll_interval_ms", "usb_interval_ms", "bluetooth_interval_ms", "other_interval_ms",
+              "stall_after_ms", "effect_length_ms", "rearm_every_ms", "gain", "constant", "rumble_on_onset",
+              "full_scale_newton", "min_level", "force_exponent", "level_gain", "level_limit",
+              "rumble_full_scale_impulse", "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio",
+              "rumble_length_ms", "contact_strong_ratio", "level_step", "direction_step", "device"});
   const Reader r{file, t, "haptics"};
   auto& h = c.haptics;
   r.get("enabled", h.enabled);
   r.get_ms("poll_interval_ms", h.poll_interval, 1, 1000);
-  r.get_ms("min_upload_interval_ms", h.min_upload_interval, 0, 10000);
+  r.get_ms("usb_interval_ms", h.pacing.usb, 0, 1000);
+  r.get_ms("bluetooth_interval_ms", h.pacing.bluetooth, 0, 1000);
+  r.get_ms("other_interval_ms", h.pacing.other, 0, 1000);
+  r.get_ms("stall_after_ms", h.stall_after, 2, 1000);
+  r.get_ms("effect_length_ms", h.effect_length, 1000, 60000);
+  r.get_ms("rearm_every_ms", h.rearm_every, 100, 60000);
+  if (h.rearm_every >= h.effect_length)
+    fail(file, t, "haptics.rearm_every_ms", "must be shorter than effect_length_ms");
   int gain = h.gain;
   if (r.get("gain", gain, 0, 0xffff)) h.gain = static_cast<std::uint16_t>(gain);
   r.get("constant", h.constant);
   r.get("rumble_on_onset", h.rumble_on_onset);
   r.get("full_scale_newton", h.force.full_scale_newton, 1e-6, 1e6);
-  r.get("dead_band_newton", h.force.dead_band_newton, 0.0, 1e6);
-  r.get("max_level", h.force.max_level, 0.0, 32767.0);
+  r.get("min_level", h.force.min_level, 0.0, 1.0);
+  r.get("force_exponent", h.force.exponent, 0.1, 4.0);
+  r.get("level_gain", h.tuning.gain, 0.0, 1.0);
+  r.get("level_limit", h.tuning.limit, 0.0, 1.0);
   r.get("rumble_full_scale_impulse", h.rumble.full_scale_impulse, 1e-9, 1e6);
   r.get("rumble_min_impulse", h.rumble.min_impulse, 0.0, 1e6);
   r.get("rumble_min_strength", h.rumble.min_strength, 0.0, 1.0);
   r.get("rumble_weak_ratio", h.rumble.weak_ratio, 0.0, 1.0);
+  r.get("contact_strong_ratio", h.rumble.contact_strong_ratio, 0.0, 1.0);
   int len = h.rumble.length_ms;
-  if (r.get("rumble_length_ms", len, 1, 10000)) h.rumble.length_ms = static_cast<std::uint16_t>(len);
+  if (r.get("rumble_length_ms", len, 1, 1000)) h.rumble.length_ms = static_cast<std::uint16_t>(len);
   r.get("level_step", h.change.level_step, 0, 0x7fff);
   r.get("direction_step", h.change.direction_step, 0, 0xffff);
+  h.devices.clear();
+  if (const toml::node* n = t.get("device")) {
+    const toml::array* list = n->as_array();
+    if (!list) fail(file, *n, "haptics.device", "must be an array of tables ([[haptics.device]])");
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const toml::table* entry = (*list)[i].as_table();
+      if (!entry) fail(file, (*list)[i], "haptics.device", "must be an array of tables ([[haptics.device]])");
+      h.devices.push_back(read_device_override(file, *entry, i, h.tuning));
+    }
+  }
 }
 
 }  // namespace

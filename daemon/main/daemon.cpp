@@ -17,6 +17,7 @@
 #include "client/socket_path.hpp"
 #include "haptics/feedback_board.hpp"
 #include "haptics/haptics_thread.hpp"
+#include "main/sleep_watch.hpp"
 #include "input/mapping.hpp"
 #include "loop/compaction.hpp"
 #include "loop/preemption.hpp"
@@ -95,6 +96,8 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     loader_ = std::make_unique<SceneLoader>(
         *tasks_, stopping_, *board_,
         [this] {
+          // The scene is replaced: nothing is felt until the new one ticks.
+          board_->set_hold(haptics::Hold::swapping);
           sims_.request_stop();
           return until_sim_stopped();
         },
@@ -111,6 +114,11 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     hub_.use_scene(sims_.scene(), sims_.tools(), sims_.stages(), sims_.rate());
     haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
     haptics_->start();
+    // Pads may lose their FF state over a suspend: reopened at the resume.
+    sleep_ = std::make_unique<SleepWatch>([h = haptics_.get()](bool sleeping) {
+      if (!sleeping) h->resumed();
+    });
+    sleep_->start();
     hub_.set_haptics(haptics_.get());
     desk_.set_haptics(haptics_.get());
     desk_.set_keeper(keeper_.get());
@@ -122,6 +130,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     start_server();
     if (keeper_) keeper_->start();
     // The sim thread. READY waits for its first tick (housekeep()).
+    board_->set_hold(start.paused ? haptics::Hold::paused : haptics::Hold::none);
     sims_.start(start.tick, start.paused);
     // Once per process, not at every scene swap: the kernel's settings that
     // hold up a real-time thread.
@@ -298,6 +307,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     loader_->dispose(Replaced{std::move(old), std::move(shown)});
     blowups_.reset(mesh_names(sims_.scene()));
     sims_.restart_if_missing();
+    board_->set_hold(sims_.paused() ? haptics::Hold::paused : haptics::Hold::none);
     log::notice("{}: scene {} ({} meshes, {} vertices) from tick {} (the swap held the io loop {:.1f} ms)", what,
                 sims_.scene().file.string(), sims_.scene().meshes.size(), vertices_of(sims_.scene()),
                 tick,
@@ -415,8 +425,10 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
 
   void stop_threads() {
     if (server_) server_->close();  // no client reads the published state any more
+    if (board_) board_->set_hold(haptics::Hold::stopped);  // zero felt before the sim thread stops beating
     sims_.stop();
     if (keeper_) keeper_->stop();  // after the sim thread: it takes everything it did
+    sleep_.reset();                  // before the haptics thread it tells about resumes
     if (haptics_) haptics_->stop();  // stops and erases every effect, closes its fds
   }
 
@@ -455,6 +467,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   DeviceHub hub_;
   ControlDesk desk_;
   std::unique_ptr<haptics::HapticsThread> haptics_;
+  std::unique_ptr<SleepWatch> sleep_;  // after haptics_: destroyed first
   std::unique_ptr<InputSource> input_;  // after hub_, its devices' listener: destroyed first
   BlowupLog blowups_;
   std::unique_ptr<JournalTap> tap_;

@@ -84,6 +84,10 @@ void SculptStages::write_edits(std::uint64_t tick) {
 }
 
 void SculptStages::paused_changed(std::uint64_t tick, bool paused) {
+  // Paused, the loop runs no ticks: nothing may stay felt (an effect left
+  // playing while paused), and the haptics thread must not take the
+  // missing beats for a stall.
+  board_.set_hold(paused ? haptics::Hold::paused : haptics::Hold::none);
   if (!tap_) return;
   JournalEntry e;
   e.kind = paused ? JournalEntry::Kind::pause : JournalEntry::Kind::resume;

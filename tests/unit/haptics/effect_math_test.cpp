@@ -1,6 +1,7 @@
 // Force → FF effect maths: directions in every quadrant (the Linux convention,
-// checked against the memoryless driver's inverse), dead band, scaling and
-// clamping, projection through the stick's mapping, rumble from impulse.
+// checked against the memoryless driver's inverse), force → level (felt
+// minimum, monotonic, saturating), gain and limit, projection through the
+// stick's mapping, contact rumble, kicks from impulse.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,24 +12,22 @@
 namespace sculpt::haptics {
 namespace {
 
-const ForceScale kScale{/*full_scale_newton=*/2.0, /*dead_band_newton=*/0.05, /*max_level=*/0x7fff};
-
 TEST(ConstantFromForce, CardinalDirectionsFollowLinuxConvention) {
   // The stick is pushed up (y < 0): the force comes from below: 0x0000 "down".
-  EXPECT_EQ(constant_from_force({0, -1}, kScale).direction, 0x0000);
+  EXPECT_EQ(constant_from_level({0, -1}, 1.0).direction, 0x0000);
   // Pushed right (x > 0): comes from the left: 0x4000.
-  EXPECT_EQ(constant_from_force({1, 0}, kScale).direction, 0x4000);
+  EXPECT_EQ(constant_from_level({1, 0}, 1.0).direction, 0x4000);
   // Pushed down (y > 0, towards the user): comes from above: 0x8000.
-  EXPECT_EQ(constant_from_force({0, 1}, kScale).direction, 0x8000);
+  EXPECT_EQ(constant_from_level({0, 1}, 1.0).direction, 0x8000);
   // Pushed left: comes from the right: 0xC000.
-  EXPECT_EQ(constant_from_force({-1, 0}, kScale).direction, 0xC000);
+  EXPECT_EQ(constant_from_level({-1, 0}, 1.0).direction, 0xC000);
 }
 
 TEST(ConstantFromForce, EachQuadrantDiagonal) {
-  EXPECT_EQ(constant_from_force({1, -1}, kScale).direction, 0x2000);   // up-right
-  EXPECT_EQ(constant_from_force({1, 1}, kScale).direction, 0x6000);    // down-right
-  EXPECT_EQ(constant_from_force({-1, 1}, kScale).direction, 0xA000);   // down-left
-  EXPECT_EQ(constant_from_force({-1, -1}, kScale).direction, 0xE000);  // up-left
+  EXPECT_EQ(constant_from_level({1, -1}, 1.0).direction, 0x2000);   // up-right
+  EXPECT_EQ(constant_from_level({1, 1}, 1.0).direction, 0x6000);    // down-right
+  EXPECT_EQ(constant_from_level({-1, 1}, 1.0).direction, 0xA000);   // down-left
+  EXPECT_EQ(constant_from_level({-1, -1}, 1.0).direction, 0xE000);  // up-left
 }
 
 TEST(ConstantFromForce, InverseOfTheMemorylessDriverInEveryDirection) {
@@ -37,7 +36,7 @@ TEST(ConstantFromForce, InverseOfTheMemorylessDriverInEveryDirection) {
   for (int deg = 0; deg < 360; deg += 7) {
     const double a = deg * M_PI / 180.0;
     const StickForce want{1.5 * std::cos(a), 1.5 * std::sin(a)};
-    const ConstantCommand c = constant_from_force(want, kScale);
+    const ConstantCommand c = constant_from_level(want, 1.0);
     const StickForce played = force_from_constant(c);
     const double cosine = (played.x * want.x + played.y * want.y) /
                           (std::hypot(played.x, played.y) * std::hypot(want.x, want.y));
@@ -45,32 +44,75 @@ TEST(ConstantFromForce, InverseOfTheMemorylessDriverInEveryDirection) {
   }
 }
 
-TEST(ConstantFromForce, LevelScalesThenClamps) {
-  EXPECT_EQ(constant_from_force({1.0, 0}, kScale).level, 16384);  // half of full scale (rounded)
-  EXPECT_EQ(constant_from_force({2.0, 0}, kScale).level, 0x7fff);
-  EXPECT_EQ(constant_from_force({50.0, 0}, kScale).level, 0x7fff);
-  EXPECT_EQ(constant_from_force({0, -1e9}, kScale).level, 0x7fff);
-  ForceScale capped = kScale;
-  capped.max_level = 10000;
-  EXPECT_EQ(constant_from_force({5.0, 0}, capped).level, 10000);
-  capped.max_level = 1e9;  // never beyond what the kernel takes
-  EXPECT_EQ(constant_from_force({5.0, 0}, capped).level, 0x7fff);
+TEST(LevelFromForce, FirstTouchFeltMonotonicSaturating) {
+  const ForceScale scale{/*full_scale_newton=*/1.2, /*min_level=*/0.12, /*exponent=*/0.5};
+  // Not touching: nothing, whatever the force says.
+  EXPECT_EQ(level_from_force(0.5, false, scale), 0.0);
+  // Touching: the lightest touch is felt (no dead band), even at 0 N.
+  EXPECT_DOUBLE_EQ(level_from_force(0.0, true, scale), 0.12);
+  EXPECT_GT(level_from_force(0.003, true, scale), 0.12);
+  // The renderer's range: a light touch (few mN..0.05 N) is clearly above
+  // the floor, a 1–2 cm press (0.1..1.2 N) spans most of the range.
+  EXPECT_GT(level_from_force(0.05, true, scale), 0.25);
+  EXPECT_GT(level_from_force(0.1, true, scale), 0.3);
+  EXPECT_DOUBLE_EQ(level_from_force(1.2, true, scale), 1.0);
+  EXPECT_DOUBLE_EQ(level_from_force(50.0, true, scale), 1.0);  // saturates
+  double last = 0;
+  for (double f = 0; f < 2.0; f += 0.001) {
+    const double l = level_from_force(f, true, scale);
+    EXPECT_GE(l, last) << f;
+    last = l;
+  }
+  EXPECT_EQ(level_from_force(std::nan(""), true, scale), 0.0);
+  EXPECT_EQ(level_from_force(INFINITY, true, scale), 0.0);
 }
 
-TEST(ConstantFromForce, DeadBandGivesZero) {
-  EXPECT_EQ(constant_from_force({0.03, 0.03}, kScale), ConstantCommand{});  // |f| = 0.042 < 0.05
-  EXPECT_GT(constant_from_force({0.04, 0.04}, kScale).level, 0);           // |f| = 0.057
-  EXPECT_EQ(constant_from_force({0, 0}, kScale), ConstantCommand{});
+TEST(Tuned, GainThenLimitNeverAbove) {
+  EXPECT_DOUBLE_EQ(tuned(0.8, {0.5, 1.0}), 0.4);
+  EXPECT_DOUBLE_EQ(tuned(0.8, {1.0, 0.3}), 0.3);
+  EXPECT_DOUBLE_EQ(tuned(0.8, {0.5, 0.3}), 0.3);
+  EXPECT_DOUBLE_EQ(tuned(2.0, {1.0, 1.0}), 1.0);
+  EXPECT_EQ(tuned(std::nan(""), {1.0, 1.0}), 0.0);
+  EXPECT_EQ(tuned(1.0, {std::nan(""), 1.0}), 0.0);
 }
 
-TEST(ConstantFromForce, NonFiniteOrBadScaleGivesZero) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double inf = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(constant_from_force({nan, 1}, kScale), ConstantCommand{});
-  EXPECT_EQ(constant_from_force({inf, 1}, kScale), ConstantCommand{});
-  ForceScale bad = kScale;
-  bad.full_scale_newton = 0;
-  EXPECT_EQ(constant_from_force({1, 1}, bad), ConstantCommand{});
+TEST(ConstantFromLevel, LevelInUnitsRoundedDownZeroWithoutDirection) {
+  EXPECT_EQ(constant_from_level({1.0, 0}, 1.0).level, 0x7fff);
+  EXPECT_EQ(constant_from_level({1.0, 0}, 0.5).level, 16383);
+  EXPECT_EQ(constant_from_level({1.0, 0}, 7.0).level, 0x7fff);
+  EXPECT_EQ(constant_from_level({0, 0}, 1.0), ConstantCommand{});
+  EXPECT_EQ(constant_from_level({1.0, 0}, 0.0), ConstantCommand{});
+  EXPECT_EQ(constant_from_level({std::nan(""), 1}, 1.0), ConstantCommand{});
+}
+
+TEST(RumbleFromLevel, ContactMixIsMostlyTheWeakMotor) {
+  RumbleScale scale;
+  scale.contact_strong_ratio = 0.25;
+  const RumbleCommand r = rumble_from_level(0.5, scale);
+  EXPECT_EQ(r.weak, 32767);
+  EXPECT_EQ(r.strong, 8191);
+  EXPECT_FALSE(rumble_from_level(0.0, scale).any());
+  EXPECT_GE(rumble_from_level(1e-9, scale).weak, 1);  // touching is never a zero rumble
+}
+
+TEST(RumbleFromImpulse, KicksNeverExceedTheLimit) {
+  RumbleScale scale;
+  for (double impulse : {1e-6, 1e-4, 1e-3, 1.0}) {
+    const RumbleCommand k = rumble_from_impulse(impulse, scale, {1.0, 0.4});
+    EXPECT_LE(k.strong, 0.4 * 65535) << impulse;
+    EXPECT_LE(k.weak, 0.4 * 65535) << impulse;
+    EXPECT_GT(k.strong, 0) << impulse;
+  }
+  const RumbleCommand half_gain = rumble_from_impulse(1.0, scale, {0.5, 1.0});
+  EXPECT_EQ(half_gain.strong, 32767);
+}
+
+TEST(IsRealChange, RumbleStepsAndZero) {
+  const ChangeThreshold t{256, 0x200};
+  EXPECT_FALSE(is_real_change(RumbleCommand{1000, 1000, 0}, RumbleCommand{1000, 1511, 0}, t));
+  EXPECT_TRUE(is_real_change(RumbleCommand{1000, 1000, 0}, RumbleCommand{1000, 1512, 0}, t));
+  EXPECT_TRUE(is_real_change(RumbleCommand{0, 1, 0}, RumbleCommand{}, t));
+  EXPECT_FALSE(is_real_change(RumbleCommand{}, RumbleCommand{}, t));
 }
 
 TEST(ProjectToStick, PicksTheDrivenAxesWithTheirSigns) {
@@ -95,19 +137,19 @@ TEST(ProjectToStick, ResistanceIsFeltAgainstTheMotion) {
   // Tool pushed into a wall along +x: the mesh pushes back along −x; the stick
   // that moved right is pushed left (direction 0xC000, the force comes from the right).
   const StickForce s = project_to_stick({-1.0, 0, 0}, StickPlane{0, 2, 1.0, 1.0});
-  EXPECT_EQ(constant_from_force(s, kScale).direction, 0xC000);
+  EXPECT_EQ(constant_from_level(s, 1.0).direction, 0xC000);
 }
 
 TEST(RumbleFromImpulse, ScalesClampsAndIgnoresTinyOnes) {
   const RumbleScale scale{/*full_scale_impulse=*/0.02, /*min_impulse=*/1e-5, /*weak_ratio=*/0.5, 60,
                           /*min_strength=*/0.0};
   const RumbleCommand half = rumble_from_impulse(0.01, scale);
-  EXPECT_EQ(half.strong, 32768);
-  EXPECT_EQ(half.weak, 16384);
+  EXPECT_EQ(half.strong, 32767);  // rounded down: a limit is never exceeded by rounding
+  EXPECT_EQ(half.weak, 16383);
   EXPECT_EQ(half.length_ms, 60);
   const RumbleCommand full = rumble_from_impulse(5.0, scale);
   EXPECT_EQ(full.strong, 0xffff);
-  EXPECT_EQ(full.weak, 32768);
+  EXPECT_EQ(full.weak, 32767);
   EXPECT_FALSE(rumble_from_impulse(1e-6, scale).any());
   EXPECT_FALSE(rumble_from_impulse(0, scale).any());
   EXPECT_FALSE(rumble_from_impulse(-1, scale).any());
@@ -139,13 +181,13 @@ TEST(IsRealChange, LevelStepDirectionStepAndZero) {
   EXPECT_FALSE(is_real_change(base, {10000, 0x41ff}, t));
   EXPECT_TRUE(is_real_change(base, {10000, 0x4200}, t));
   // Direction wraps around 0.
-  EXPECT_FALSE(is_real_change({10000, 0xff00}, {10000, 0x0080}, t));
-  EXPECT_TRUE(is_real_change({10000, 0xff00}, {10000, 0x0100}, t));
+  EXPECT_FALSE(is_real_change(ConstantCommand{10000, 0xff00}, ConstantCommand{10000, 0x0080}, t));
+  EXPECT_TRUE(is_real_change(ConstantCommand{10000, 0xff00}, ConstantCommand{10000, 0x0100}, t));
   // To and from zero is always a change, however small the level.
-  EXPECT_TRUE(is_real_change({0, 0}, {1, 0x4000}, t));
-  EXPECT_TRUE(is_real_change({1, 0x4000}, {0, 0}, t));
+  EXPECT_TRUE(is_real_change(ConstantCommand{0, 0}, ConstantCommand{1, 0x4000}, t));
+  EXPECT_TRUE(is_real_change(ConstantCommand{1, 0x4000}, ConstantCommand{0, 0}, t));
   // Both zero: nothing to send.
-  EXPECT_FALSE(is_real_change({0, 0}, {0, 0}, t));
+  EXPECT_FALSE(is_real_change(ConstantCommand{0, 0}, ConstantCommand{0, 0}, t));
 }
 
 }  // namespace

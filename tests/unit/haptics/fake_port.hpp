@@ -6,6 +6,7 @@
 #include <linux/input.h>
 
 #include <cerrno>
+#include <chrono>
 #include <deque>
 #include <memory>
 #include <string>
@@ -17,6 +18,8 @@ namespace sculpt::haptics::testing {
 
 struct FakeDeviceState {
   FfCaps caps;
+  DeviceIdentity identity;               // EVIOCGID / EVIOCGNAME
+  std::chrono::steady_clock::time_point now{};  // the test's clock: stamps each call
   std::vector<bool> used;                // effect id → in use
   std::deque<int> upload_errors;         // next uploads answer these (0 = normal)
   bool unplugged = false;                // every call answers ENODEV
@@ -28,6 +31,7 @@ struct FakeDeviceState {
     std::int16_t id = -1;                // upload: assigned id; erase: id; write: code
     std::int32_t value = 0;              // write: value
     int result = 0;
+    std::chrono::steady_clock::time_point at{};
   };
   std::vector<Call> calls;
 
@@ -56,9 +60,14 @@ class FakePort final : public FfPort {
  public:
   explicit FakePort(std::shared_ptr<FakeDeviceState> s, std::string node = "/dev/input/fake")
       : s_(std::move(s)), node_(std::move(node)) {}
-  ~FakePort() override { s_->closed = true; }
+  // Like the kernel's flush on close: the file's effects are erased.
+  ~FakePort() override {
+    s_->closed = true;
+    s_->used.assign(s_->used.size(), false);
+  }
 
   FfCaps caps() override { return s_->caps; }
+  DeviceIdentity identity() override { return s_->identity; }
 
   int upload(ff_effect& e) override {
     FakeDeviceState::Call call{FakeDeviceState::Call::upload, e, e.id, 0, 0};
@@ -87,6 +96,7 @@ class FakePort final : public FfPort {
     }
     call.id = e.id;
     call.result = r;
+    call.at = s_->now;
     s_->calls.push_back(call);
     return r;
   }
@@ -99,13 +109,13 @@ class FakePort final : public FfPort {
       r = EINVAL;
     else
       s_->used[id] = false;
-    s_->calls.push_back({FakeDeviceState::Call::erase, {}, id, 0, r});
+    s_->calls.push_back({FakeDeviceState::Call::erase, {}, id, 0, r, s_->now});
     return r;
   }
 
   int write_ff(std::uint16_t code, std::int32_t value) override {
     const int r = s_->unplugged ? ENODEV : 0;
-    s_->calls.push_back({FakeDeviceState::Call::write, {}, static_cast<std::int16_t>(code), value, r});
+    s_->calls.push_back({FakeDeviceState::Call::write, {}, static_cast<std::int16_t>(code), value, r, s_->now});
     return r;
   }
 

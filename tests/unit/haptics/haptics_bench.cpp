@@ -43,7 +43,8 @@ void BM_ConstantFromForce(benchmark::State& state) {
   for (auto _ : state) {
     a += 0.01;
     const StickForce s = project_to_stick({std::cos(a), 0.3, std::sin(a)}, plane);
-    benchmark::DoNotOptimize(constant_from_force(s, scale));
+    const double level = tuned(level_from_force(std::hypot(s.x, s.y), true, scale), DeviceTuning{0.8, 0.9});
+    benchmark::DoNotOptimize(constant_from_level(s, level));
   }
 }
 BENCHMARK(BM_ConstantFromForce);
@@ -55,7 +56,7 @@ void BM_EnginePoll(benchmark::State& state) {
   FeedbackBoard board(n);
   HapticsStats stats;
   HapticsSettings settings;
-  settings.min_upload_interval = std::chrono::milliseconds(0);
+  settings.pacing.other = std::chrono::milliseconds(0);
   std::vector<std::shared_ptr<sculpt::haptics::testing::FakeDeviceState>> devices;
   HapticsEngine engine(board, settings, [&](const std::string& node) -> std::unique_ptr<FfPort> {
     devices.push_back(sculpt::haptics::testing::fake_device({FF_CONSTANT, FF_RUMBLE}, 16));
@@ -69,6 +70,7 @@ void BM_EnginePoll(benchmark::State& state) {
     state.PauseTiming();
     a += 0.5;
     f.force = {1.5 * std::cos(a), 0, 1.5 * std::sin(a)};
+    f.touching = true;
     for (int i = 0; i < n; ++i) board.publish(i, f);
     for (auto& d : devices) d->calls.clear();
     state.ResumeTiming();

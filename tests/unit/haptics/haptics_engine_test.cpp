@@ -1,10 +1,15 @@
 // The haptics thread's decisions, driven directly with fake devices and an
-// explicit clock: uploads on a real change only, paced per device, kicks on
-// onset, forget on unplug and re-upload on replug.
+// explicit clock: continuous force (constant, or rumble on rumble-only pads),
+// kicks on onset, one id per effect updated in place, per-bus pacing over
+// 10 000 polls, re-arm before the replay length runs out, gain and limit,
+// zero on a stall or a hold, neutral after a suspend, first uploads retried
+// while a new device is not ready, forget on unplug and re-upload on replug.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 #include "fake_port.hpp"
@@ -34,9 +39,35 @@ Felt push(double fx, double fz, bool onset = false, double impulse = 0) {
 class Engine : public ::testing::Test {
  protected:
   Engine() {
-    settings.min_upload_interval = 25ms;
-    settings.force = ForceScale{2.0, 0.05, 0x7fff};
-    settings.rumble = RumbleScale{0.02, 1e-5, 0.5, 60, 0.0};
+    settings.force = ForceScale{2.0, 0.1, 1.0};
+    settings.rumble = RumbleScale{0.02, 1e-5, 0.5, 40, 0.0, 0.25};
+  }
+  // One poll at `t`, with every fake device's clock at `t`.
+  void poll_at(Clock::time_point t, std::optional<std::chrono::nanoseconds> boottime = std::nullopt) {
+    for (auto& [node, d] : devices) d->now = t;
+    engine().poll(t, boottime);
+  }
+  std::shared_ptr<FakeDeviceState> pad(const std::string& node, std::initializer_list<std::uint16_t> bits,
+                                       int effects, std::uint16_t bus = BUS_USB) {
+    auto d = devices[node] = fake_device(bits, effects);
+    d->identity.bustype = bus;
+    d->identity.vendor = 0x045e;
+    d->identity.product = 0x028e;
+    d->identity.name = "Fake " + node;
+    return d;
+  }
+  // Every call that reaches the driver as a report: uploads, plays and FF_GAIN.
+  static std::vector<Call> reports(const FakeDeviceState& s) {
+    std::vector<Call> out;
+    for (const auto& c : s.calls)
+      if (c.kind == Call::upload || (c.kind == Call::write && (c.id == FF_GAIN || c.value != 0))) out.push_back(c);
+    return out;
+  }
+  static std::vector<Call> plays(const FakeDeviceState& s) {
+    std::vector<Call> out;
+    for (const auto& c : s.of(Call::write))
+      if (c.id != FF_GAIN && c.value == 1) out.push_back(c);
+    return out;
   }
   HapticsEngine& engine() {
     if (!engine_)
@@ -70,94 +101,445 @@ class Engine : public ::testing::Test {
   Clock::time_point t0{};
 };
 
-TEST_F(Engine, FirstPollUploadsThenOnlyRealChanges) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16);
+TEST_F(Engine, ConstantDeviceClaimsItsIdThenPlaysThenUpdatesInPlace) {
+  auto d = pad("/dev/input/event1", {FF_CONSTANT, FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  EXPECT_EQ(stats.devices.load(), 1);
-  EXPECT_EQ(stats.ff_devices.load(), 1);
-
-  engine().poll(t0);
-  auto ups = constant_uploads(*pad);
-  ASSERT_EQ(ups.size(), 1u);  // the effect exists from the start, at level 0
+  poll_at(t0);  // not touching: the id is claimed at level 0
+  auto ups = constant_uploads(*d);
+  ASSERT_EQ(ups.size(), 1u);
   EXPECT_EQ(ups[0].effect.id, -1);
   EXPECT_EQ(ups[0].effect.u.constant.level, 0);
-
-  // Same force for a second of polls: nothing more.
-  for (int i = 1; i < 250; ++i) engine().poll(t0 + i * 4ms);
-  EXPECT_EQ(constant_uploads(*pad).size(), 1u);
-
-  // Contact: pushed back along −x → the stick is pushed left (0xC000).
-  board.publish(0, push(-1.0, 0));
-  engine().poll(t0 + 1s);
-  ups = constant_uploads(*pad);
+  EXPECT_EQ(ups[0].effect.replay.length, 20000);  // finite, re-armed
+  poll_at(t0 + 4ms);
+  EXPECT_TRUE(plays(*d).empty()) << "USB: 10 ms between writes";
+  poll_at(t0 + 12ms);
+  ASSERT_EQ(plays(*d).size(), 1u);
+  board.publish(0, push(1.0, 0));
+  poll_at(t0 + 24ms);
+  ups = constant_uploads(*d);
   ASSERT_EQ(ups.size(), 2u);
-  EXPECT_EQ(ups[1].effect.id, ups[0].id);  // in place
-  EXPECT_EQ(ups[1].effect.u.constant.level, 16384);
-  EXPECT_EQ(ups[1].effect.direction, 0xC000);
-  EXPECT_EQ(stats.ff.uploads.load(), 2u);
-  EXPECT_EQ(stats.ff.live_effects.load(), 1);
+  EXPECT_EQ(ups[1].effect.id, ups[0].id);
+  // 1 N of 2 N full scale, exponent 1, floor 0.1: 0.55.
+  EXPECT_EQ(ups[1].effect.u.constant.level, static_cast<int>(0.55 * 32767));
+  EXPECT_EQ(ups[1].effect.direction, 0x4000);
+  // Not touching: zero.
+  board.publish(0, push(0, 0));
+  poll_at(t0 + 36ms);
+  ups = constant_uploads(*d);
+  ASSERT_EQ(ups.size(), 3u);
+  EXPECT_EQ(ups[2].effect.u.constant.level, 0);
+  EXPECT_EQ(d->live(), 1);
 }
 
-TEST_F(Engine, PacingBoundsUploadsOverTenThousandUpdates) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
+TEST_F(Engine, ContinuousRumbleFollowsTheForceOnARumbleOnlyPad) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  // The sim publishes 10 000 ticks of a wildly changing force; the haptics
-  // thread polls every 4 ms of them.
-  for (int tick = 0; tick < 10000; ++tick) {
-    const double phase = tick * 0.01;
-    board.publish(0, push(1.5 * std::sin(phase), 1.5 * std::cos(phase)));
-    if (tick % 4 == 0) engine().poll(t0 + tick * 1ms);
+  std::vector<std::uint16_t> weak_seen;
+  for (int i = 0; i < 200; ++i) {
+    const double f = i < 100 ? 0.025 * i : 0.0;  // a press building to 2.5 N, then released
+    board.publish(0, push(f, 0));
+    poll_at(t0 + std::chrono::milliseconds(4 * i));
   }
-  const auto ups = constant_uploads(*pad);
-  EXPECT_LE(ups.size(), 10000u / 25 + 1);  // never more often than 25 ms
-  EXPECT_GE(ups.size(), 10000u / 28);      // and it follows the force
-  for (std::size_t i = 1; i < ups.size(); ++i) EXPECT_EQ(ups[i].effect.id, ups[0].id);
-  EXPECT_EQ(pad->live(), 1);
+  const auto ups = rumble_uploads(*d);
+  ASSERT_GE(ups.size(), 10u);
+  EXPECT_EQ(ups[0].effect.id, -1);
+  std::uint16_t last = 0;
+  for (std::size_t i = 1; i < ups.size(); ++i) {
+    EXPECT_EQ(ups[i].effect.id, ups[0].id) << "one rumble id, updated in place";
+    EXPECT_EQ(ups[i].effect.replay.length, 20000);
+    const auto& r = ups[i].effect.u.rumble;
+    if (i + 1 < ups.size()) {
+      EXPECT_GE(r.weak_magnitude, last) << "rises with the force";
+      EXPECT_LE(r.strong_magnitude, r.weak_magnitude) << "the contact mix is mostly the weak motor";
+      last = r.weak_magnitude;
+    }
+  }
+  EXPECT_EQ(last, 0xffff) << "saturates at full scale";
+  EXPECT_FALSE(ups.back().effect.u.rumble.weak_magnitude || ups.back().effect.u.rumble.strong_magnitude)
+      << "zero when not touching";
+  EXPECT_EQ(d->live(), 1);
+  EXPECT_TRUE(constant_uploads(*d).empty());
+}
+
+TEST_F(Engine, LightestTouchIsFeltOnARumbleOnlyPad) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  poll_at(t0);
+  poll_at(t0 + 12ms);  // play
+  board.publish(0, push(0.003, 0));  // 3 mN
+  poll_at(t0 + 24ms);
+  const auto ups = rumble_uploads(*d);
+  ASSERT_EQ(ups.size(), 2u);
+  EXPECT_GE(ups[1].effect.u.rumble.weak_magnitude, 0.1 * 0xffff);
+}
+
+TEST_F(Engine, KickIsDistinctThenBackToTheContactLevelInTheSameEffect) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  poll_at(t0);
+  poll_at(t0 + 12ms);
+  board.publish(0, push(0.4, 0, /*onset=*/true, 0.01));
+  poll_at(t0 + 24ms);
+  for (int i = 1; i < 30; ++i) {
+    board.publish(0, push(0.4, 0));
+    poll_at(t0 + 24ms + std::chrono::milliseconds(4 * i));
+  }
+  const auto ups = rumble_uploads(*d);
+  ASSERT_GE(ups.size(), 3u);
+  const auto& kick = ups[1].effect.u.rumble;
+  const auto& after = ups[2].effect.u.rumble;
+  EXPECT_EQ(ups[1].at, t0 + 24ms) << "the kick goes first";
+  EXPECT_GT(kick.strong_magnitude, kick.weak_magnitude) << "the kick is mostly the strong motor";
+  EXPECT_GT(kick.strong_magnitude, after.strong_magnitude);
+  EXPECT_LT(after.strong_magnitude, after.weak_magnitude) << "then the contact mix again";
+  EXPECT_GE(ups[2].at - ups[1].at, 40ms) << "after the kick's length";
+  EXPECT_LE(ups[2].at - ups[1].at, 52ms);
+  for (const auto& u : ups) EXPECT_EQ(u.id, ups[0].id);
+  EXPECT_EQ(stats.ff.kicks.load(), 1u);
+}
+
+TEST_F(Engine, ConstantDeviceKicksWithItsOwnShortRumble) {
+  auto d = pad("/dev/input/event1", {FF_CONSTANT, FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  poll_at(t0);
+  poll_at(t0 + 12ms);
+  board.publish(0, push(1.0, 0, true, 0.01));
+  for (int i = 0; i < 20; ++i) poll_at(t0 + 24ms + std::chrono::milliseconds(4 * i));
+  const auto r = rumble_uploads(*d);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0].effect.replay.length, 40);  // ends by itself
+  EXPECT_EQ(r[0].effect.u.rumble.strong_magnitude, 32767);
+  int rumble_plays = 0;
+  for (const auto& p : plays(*d)) rumble_plays += p.id == r[0].id;
+  EXPECT_EQ(rumble_plays, 1);
+  EXPECT_EQ(stats.ff.kicks.load(), 1u);
+  EXPECT_GE(constant_uploads(*d).size(), 2u);
 }
 
 TEST_F(Engine, OnsetKicksEvenWhenItEndedBetweenPolls) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
-  board.publish(0, push(0.5, 0, true, 0.01));
-  board.publish(0, push(0, 0));  // contact already over at the next poll
-  engine().poll(t0 + 4ms);
-  const auto kicks = rumble_uploads(*pad);
-  ASSERT_EQ(kicks.size(), 1u);
-  EXPECT_EQ(kicks[0].effect.u.rumble.strong_magnitude, 32768);  // 0.01 of 0.02 N·s
-  EXPECT_EQ(stats.ff.kicks.load(), 1u);
-  // No new onset: no new kick.
-  engine().poll(t0 + 100ms);
-  EXPECT_EQ(rumble_uploads(*pad).size(), 1u);
+  poll_at(t0);
+  poll_at(t0 + 12ms);
+  board.publish(0, push(1.0, 0, true, 0.02));
+  board.publish(0, push(0, 0));
+  poll_at(t0 + 24ms);
+  const auto ups = rumble_uploads(*d);
+  ASSERT_EQ(ups.size(), 2u);
+  EXPECT_EQ(ups[1].effect.u.rumble.strong_magnitude, 0xffff);
 }
 
 TEST_F(Engine, OnsetsBeforeAttachGiveNoKick) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_RUMBLE}, 16);
-  board.publish(0, push(0.5, 0, true, 0.01));
+  board.publish(0, push(1.0, 0, true, 0.02));
+  board.publish(0, push(0, 0));
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
-  engine().poll(t0 + 4ms);
-  EXPECT_TRUE(rumble_uploads(*pad).empty());
+  for (int i = 0; i < 10; ++i) poll_at(t0 + std::chrono::milliseconds(12 * i));
+  EXPECT_EQ(stats.ff.kicks.load(), 0u);
 }
 
-TEST_F(Engine, RumbleOnlyPadGetsKicksNoConstant) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_RUMBLE}, 16);
+TEST_F(Engine, PerBusIntervalsAreNeverViolatedOverTenThousandPolls) {
+  auto usb = pad("/dev/input/event1", {FF_RUMBLE, FF_GAIN}, 16, BUS_USB);
+  auto bt = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16, BUS_BLUETOOTH);
+  auto virt = pad("/dev/input/event3", {FF_RUMBLE, FF_GAIN}, 16, BUS_VIRTUAL);
+  settings.pacing.other = 7ms;
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
-  board.publish(0, push(1.0, 0, true, 0.02));
-  engine().poll(t0 + 4ms);
-  EXPECT_TRUE(constant_uploads(*pad).empty());
-  EXPECT_EQ(rumble_uploads(*pad).size(), 1u);
+  engine().attach(1, "/dev/input/event2", {{0, kPlane}});
+  engine().attach(2, "/dev/input/event3", {{0, kPlane}});
+  for (int i = 0; i < 10000; ++i) {
+    const double f = 1.0 + std::sin(i * 0.05);
+    board.publish(0, push(f, 0.3 * f, i % 97 == 0, 0.001 * (i % 5)));
+    board.beat();
+    if (i == 5000) engine().configure(settings);  // SIGHUP: FF_GAIN again, paced too
+    poll_at(t0 + std::chrono::milliseconds(2 * i));  // polls faster than any interval
+  }
+  struct Case { const FakeDeviceState* d; std::chrono::milliseconds interval; };
+  for (const Case& c : {Case{usb.get(), 10ms}, Case{bt.get(), 25ms}, Case{virt.get(), 7ms}}) {
+    const auto r = reports(*c.d);
+    ASSERT_GT(r.size(), 100u);
+    for (std::size_t i = 1; i < r.size(); ++i)
+      ASSERT_GE(r[i].at - r[i - 1].at, c.interval) << "report " << i << " at interval " << c.interval.count();
+  }
+  EXPECT_GT(stats.ff.kicks.load(), 100u);
+  EXPECT_EQ(stats.ff.errors.load(), 0u);
 }
 
-TEST_F(Engine, OneEffectDeviceKeepsTheConstant) {
-  auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 1);
+TEST_F(Engine, ReArmedWellBeforeTheReplayLengthRunsOut) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
-  board.publish(0, push(1.0, 0, true, 0.02));
-  engine().poll(t0 + 30ms);
-  EXPECT_EQ(constant_uploads(*pad).size(), 2u);
-  EXPECT_TRUE(rumble_uploads(*pad).empty());
+  board.publish(0, push(0.5, 0));
+  for (int i = 0; i < 120 * 250; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));  // 120 s
+  const auto p = plays(*d);
+  ASSERT_GE(p.size(), 120u / 5);
+  for (std::size_t i = 1; i < p.size(); ++i) {
+    EXPECT_LT(p[i].at - p[i - 1].at, 20s) << "replayed before the 20 s replay length runs out";
+    EXPECT_GE(p[i].at - p[i - 1].at, 5s) << "and not more often than needed";
+  }
+  EXPECT_GE(t0 + 120s - p.back().at, 0s);
+  EXPECT_LT(t0 + 120s - p.back().at, 6s);
+  for (const auto& u : rumble_uploads(*d)) EXPECT_LT(u.effect.replay.length, 65000);
+}
+
+TEST_F(Engine, GainAndLimitScaleEveryLevelKicksIncluded) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  auto c = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  engine().attach(1, "/dev/input/event2", {{0, kPlane}});
+  engine().tune(0, {0.5, 0.3});
+  engine().tune(1, {0.5, 0.3});
+  EXPECT_EQ(engine().tuning(0), (DeviceTuning{0.5, 0.3}));
+  EXPECT_DOUBLE_EQ(stats.slot_limit[0].load(), 0.3);
+  for (int i = 0; i < 2000; ++i) {
+    board.publish(0, push(0.002 * i, 0, i % 50 == 0, 0.02));
+    poll_at(t0 + std::chrono::milliseconds(4 * i));
+  }
+  for (const auto& u : rumble_uploads(*d)) {
+    EXPECT_LE(u.effect.u.rumble.strong_magnitude, 0.3 * 0xffff);
+    EXPECT_LE(u.effect.u.rumble.weak_magnitude, 0.3 * 0xffff);
+  }
+  for (const auto& u : rumble_uploads(*c)) EXPECT_LE(u.effect.u.rumble.strong_magnitude, 0.3 * 0xffff);
+  int top = 0;
+  for (const auto& u : constant_uploads(*c)) top = std::max(top, int{u.effect.u.constant.level});
+  EXPECT_LE(top, 0.3 * 0x7fff);
+  EXPECT_GE(top, 0.29 * 0x7fff);
+  EXPECT_GE(stats.ff.kicks.load(), 10u);
+  // Gain alone scales: a kick of full strength at gain 0.5.
+  engine().tune(0, {0.5, 1.0});
+  board.publish(0, push(0.1, 0, true, 1.0));
+  poll_at(t0 + 9000ms);
+  EXPECT_EQ(rumble_uploads(*d).back().effect.u.rumble.strong_magnitude, 32767);
+}
+
+TEST_F(Engine, TuneRefusesBadValuesNamingTheField) {
+  auto check = [&](DeviceTuning t, const char* field) {
+    try {
+      engine().tune(0, t);
+      ADD_FAILURE() << field;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  check({std::nan(""), 1}, "gain");
+  check({-0.1, 1}, "gain");
+  check({1.1, 1}, "gain");
+  check({1, std::nan("")}, "limit");
+  check({1, -1}, "limit");
+  check({1, 2}, "limit");
+  EXPECT_THROW(engine().tune(HapticsStats::kSlots, {}), std::invalid_argument);
+  EXPECT_EQ(engine().tuning(0), DeviceTuning{});
+}
+
+TEST_F(Engine, ConfigOverridesMatchByIdsOrNameRuntimeTuneWinsUntilConfigure) {
+  settings.tuning = {0.9, 0.8};
+  DeviceOverride by_ids;
+  by_ids.match.vendor = 0x054c;
+  by_ids.match.product = 0x0ce6;
+  by_ids.tuning = {0.4, 0.5};
+  DeviceOverride by_name;
+  by_name.match.name = "event2";
+  by_name.tuning = {0.7, 0.6};
+  settings.devices = {by_ids, by_name};
+  auto a = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  auto b = pad("/dev/input/event2", {FF_RUMBLE}, 16);
+  auto c = pad("/dev/input/event3", {FF_RUMBLE}, 16);
+  c->identity.vendor = 0x054c;
+  c->identity.product = 0x0ce6;
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  engine().attach(1, "/dev/input/event2", {{0, kPlane}});
+  engine().attach(2, "/dev/input/event3", {{0, kPlane}});
+  EXPECT_EQ(engine().tuning(0), (DeviceTuning{0.9, 0.8}));
+  EXPECT_EQ(engine().tuning(1), (DeviceTuning{0.7, 0.6}));
+  EXPECT_EQ(engine().tuning(2), (DeviceTuning{0.4, 0.5}));
+  engine().tune(2, {0.1, 0.1});
+  engine().detach(2);
+  EXPECT_EQ(engine().tuning(2), (DeviceTuning{0.1, 0.1})) << "kept for the slot across replug";
+  engine().attach(2, "/dev/input/event3", {{0, kPlane}});
+  EXPECT_EQ(engine().tuning(2), (DeviceTuning{0.1, 0.1}));
+  engine().configure(settings);  // SIGHUP: the config rules again
+  EXPECT_EQ(engine().tuning(2), (DeviceTuning{0.4, 0.5}));
+  EXPECT_DOUBLE_EQ(stats.slot_gain[2].load(), 0.4);
+}
+
+// The worst case of the safety budget: a Bluetooth pad (25 ms pacing) that
+// wrote just before the stall was detected.
+TEST_F(Engine, StallZeroesEveryDeviceWithinFiftyMilliseconds) {
+  std::vector<std::pair<int, std::string>> lines;
+  auto bt = pad("/dev/input/event1", {FF_RUMBLE}, 16, BUS_BLUETOOTH);
+  auto c = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE}, 16, BUS_BLUETOOTH);
+  engine_ = std::make_unique<HapticsEngine>(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
+    return std::make_unique<FakePort>(devices.at(node), node);
+  }, stats, [&](int p, const std::string& m) { lines.emplace_back(p, m); });
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  engine().attach(1, "/dev/input/event2", {{0, kPlane}});
+  std::chrono::milliseconds worst{0};
+  Clock::time_point t = t0;
+  for (int round = 0; round < 20; ++round) {
+    // Sculpting with a changing force, a tick per millisecond, polled every 4 ms.
+    for (int i = 0; i < 100 + round; ++i) {
+      t += 1ms;
+      board.publish(0, push(0.5 + 0.4 * std::sin(i * 0.3 + round), 0, i % 40 == 0, 0.01));
+      board.beat();
+      if (i % 4 == 0) poll_at(t);
+    }
+    const Clock::time_point last_beat = t;
+    // The sim thread stalls; the board still says "pushing".
+    for (int i = 0; i < 100; i += 4) {
+      t += 4ms;
+      poll_at(t);
+    }
+    for (const auto& d : {bt, c}) {
+      Clock::time_point zero_at{};
+      for (const auto& u : d->of(Call::upload))
+        if (u.at > last_beat && zero_at == Clock::time_point{}) {
+          const bool zero = u.effect.type == FF_CONSTANT ? u.effect.u.constant.level == 0
+                                                         : (!u.effect.u.rumble.strong_magnitude &&
+                                                            !u.effect.u.rumble.weak_magnitude);
+          if (zero && (u.effect.type == FF_CONSTANT || d == bt)) zero_at = u.at;
+        }
+      ASSERT_NE(zero_at, Clock::time_point{}) << "round " << round;
+      worst = std::max(worst, std::chrono::duration_cast<std::chrono::milliseconds>(zero_at - last_beat));
+    }
+    EXPECT_TRUE(engine().stalled());
+  }
+  EXPECT_LE(worst, 50ms);
+  EXPECT_EQ(stats.stalls.load(), 20u);
+  int warnings = 0;
+  for (const auto& [p, m] : lines) warnings += p == 4 && m.find("stalled") != std::string::npos;
+  EXPECT_EQ(warnings, 20) << "once per stall";
+}
+
+TEST_F(Engine, HoldZeroesAndDropsKicksReleaseRestores) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  board.publish(0, push(1.0, 0));
+  for (int i = 0; i < 10; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  ASSERT_TRUE(rumble_uploads(*d).back().effect.u.rumble.weak_magnitude);
+  for (Hold h : {Hold::paused, Hold::swapping, Hold::stopped}) {
+    board.set_hold(h);
+    board.publish(0, push(1.0, 0, true, 0.02));  // an onset while held: no kick, ever
+    const auto before = stats.ff.kicks.load();
+    for (int i = 10; i < 30; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+    const auto last = rumble_uploads(*d).back();
+    EXPECT_FALSE(last.effect.u.rumble.weak_magnitude || last.effect.u.rumble.strong_magnitude);
+    EXPECT_EQ(stats.ff.kicks.load(), before);
+    board.set_hold(Hold::none);
+    for (int i = 30; i < 40; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+    EXPECT_TRUE(rumble_uploads(*d).back().effect.u.rumble.weak_magnitude);
+    EXPECT_EQ(stats.ff.kicks.load(), before);
+    t0 += 200ms;
+  }
+  EXPECT_EQ(stats.stalls.load(), 0u) << "a hold is not a stall";
+}
+
+TEST_F(Engine, BoottimeJumpReopensAndSendsANeutralState) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  auto boot = [&](Clock::time_point t, std::chrono::nanoseconds slept) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()) + 1000s + slept;
+  };
+  for (int i = 0; i < 10; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i), boot(t0 + std::chrono::milliseconds(4 * i), 0s));
+  ASSERT_EQ(opens["/dev/input/event1"], 1);
+  // 0.5 s of drift is no suspend.
+  poll_at(t0 + 40ms, boot(t0 + 40ms, 500ms));
+  EXPECT_EQ(opens["/dev/input/event1"], 1);
+  const auto before = d->calls.size();
+  // Slept an hour: BOOTTIME jumped, MONOTONIC did not.
+  poll_at(t0 + 44ms, boot(t0 + 44ms, 3600s));
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  EXPECT_EQ(stats.resumes.load(), 1u);
+  ASSERT_GT(d->calls.size(), before);
+  const auto& neutral = d->calls[before];
+  EXPECT_EQ(neutral.kind, Call::upload);
+  EXPECT_EQ(neutral.effect.id, -1);  // the driver may have lost everything: a fresh effect
+  EXPECT_FALSE(neutral.effect.u.rumble.strong_magnitude || neutral.effect.u.rumble.weak_magnitude);
+  EXPECT_EQ(d->live(), 1);
+}
+
+TEST_F(Engine, LogindResumeAndTheBoottimeJumpReopenOnce) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  const auto boot = [](Clock::time_point t, std::chrono::nanoseconds slept) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()) + 1000s + slept;
+  };
+  poll_at(t0, boot(t0, 0s));
+  engine().resumed(t0 + 4ms, "logind PrepareForSleep");  // the signal came first
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  poll_at(t0 + 8ms, boot(t0 + 8ms, 600s));  // the same resume, seen by BOOTTIME
+  EXPECT_EQ(opens["/dev/input/event1"], 2);
+  EXPECT_EQ(stats.resumes.load(), 1u);
+  poll_at(t0 + 60s, boot(t0 + 60s, 1200s));  // a later suspend
+  EXPECT_EQ(opens["/dev/input/event1"], 3);
+  EXPECT_EQ(stats.resumes.load(), 2u);
+  EXPECT_EQ(d->live(), 1);
+}
+
+TEST_F(Engine, FirstUploadEnodevIsRetriedUntilReadyWithoutError) {
+  std::vector<std::pair<int, std::string>> lines;
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  engine_ = std::make_unique<HapticsEngine>(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
+    ++opens[node];
+    return std::make_unique<FakePort>(devices.at(node), node);
+  }, stats, [&](int p, const std::string& m) { lines.emplace_back(p, m); });
+  d->upload_errors = {ENODEV, ENODEV, ENODEV, ENODEV, ENODEV};
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  for (int i = 0; i < 10; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  const auto ups = d->of(Call::upload);
+  ASSERT_GE(ups.size(), 6u);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(ups[i].at, t0 + std::chrono::milliseconds(4 * i)) << "retried every poll";
+  EXPECT_EQ(ups[5].result, 0);
+  EXPECT_EQ(stats.ff.errors.load(), 0u);
+  EXPECT_EQ(stats.first_uploads.load(), 1u);
+  EXPECT_EQ(stats.first_upload_failures.load(), 0u);
+  EXPECT_EQ(stats.not_ready_retries.load(), 5u);
+  EXPECT_EQ(stats.slot_first_upload_ns[0].load(), std::chrono::nanoseconds(20ms).count());
+  EXPECT_EQ(opens["/dev/input/event1"], 1);
+  for (const auto& [p, m] : lines) EXPECT_NE(p, 4) << m;
+  // Later, ENODEV is an unplug again.
+  d->unplugged = true;
+  board.publish(0, push(1.0, 0));
+  for (int i = 10; i < 20; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  EXPECT_TRUE(engine().device(0)->gone());
+}
+
+TEST_F(Engine, ANodeNeverReadyIsGivenUpAfterASecond) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
+  d->unplugged = true;
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  for (int i = 0; i < 300; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  EXPECT_TRUE(engine().device(0) == nullptr || engine().device(0)->gone() || opens["/dev/input/event1"] > 1);
+  EXPECT_EQ(stats.first_uploads.load(), 0u);
+  EXPECT_GE(stats.not_ready_retries.load(), 240u);
+  EXPECT_LE(stats.not_ready_retries.load(), 300u);
+}
+
+TEST_F(Engine, BustypeAndPacingComeFromTheDevice) {
+  pad("/dev/input/event1", {FF_RUMBLE}, 16, BUS_BLUETOOTH);
+  engine().attach(4, "/dev/input/event1", {{0, kPlane}});
+  EXPECT_EQ(stats.slot_bustype[4].load(), BUS_BLUETOOTH);
+  EXPECT_EQ(engine().player(4)->pacer().interval(), 25ms);
+  engine().detach(4);
+  EXPECT_EQ(stats.slot_bustype[4].load(), 0);
+}
+
+TEST_F(Engine, RumbleOnlyPadWithOneEffectGetsForceAndKicks) {
+  auto d = pad("/dev/input/event1", {FF_RUMBLE}, 1);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  poll_at(t0);
+  board.publish(0, push(1.0, 0, true, 0.01));
+  for (int i = 1; i < 30; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  EXPECT_GE(rumble_uploads(*d).size(), 3u);  // claim, kick, contact level
+  EXPECT_EQ(stats.ff.kicks.load(), 1u);
+  EXPECT_EQ(d->live(), 1);
+  EXPECT_EQ(stats.ff.errors.load(), 0u);
+}
+
+TEST_F(Engine, OneEffectConstantDeviceKeepsTheConstant) {
+  auto d = pad("/dev/input/event1", {FF_CONSTANT, FF_RUMBLE}, 1);
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  board.publish(0, push(1.0, 0, true, 0.01));
+  for (int i = 0; i < 20; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
+  EXPECT_FALSE(constant_uploads(*d).empty());
+  EXPECT_TRUE(rumble_uploads(*d).empty());
   EXPECT_EQ(stats.ff.errors.load(), 0u);
 }
 
@@ -192,7 +574,7 @@ TEST_F(Engine, MessagesGoToTheLogSink) {
   e.attach(1, "/dev/input/missing", {{1, kPlane}});
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_EQ(lines[0].first, 6);
-  EXPECT_EQ(lines[0].second, "/dev/input/event1: rumble only, 1 effect slot");
+  EXPECT_EQ(lines[0].second, "/dev/input/event1: rumble force, 1 effect slot, bus 0x00 paced 10 ms");
   EXPECT_EQ(lines[1].first, 4);
   EXPECT_EQ(lines[1].second, "no force feedback on /dev/input/missing: cannot open /dev/input/missing");
 }
@@ -220,7 +602,7 @@ TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   EXPECT_EQ(stats.slot_uploads[3].load(), 2u) << "the slot counts both devices' uploads";
   EXPECT_EQ(stats.slot_uploads[0].load(), 0u);
   EXPECT_EQ(ups[0].effect.id, -1);
-  EXPECT_EQ(ups[0].effect.u.constant.level, 16384);
+  EXPECT_EQ(ups[0].effect.u.constant.level, static_cast<int>(0.55 * 32767));
   EXPECT_EQ(stats.ff.live_effects.load(), 1);
 }
 
@@ -240,25 +622,26 @@ TEST_F(Engine, UnplugSeenByAnIoctlFirstStopsTraffic) {
 }
 
 TEST_F(Engine, EnodevWithoutAnUnplugReopensTheDevice) {
-  // uinput answers ENODEV in the moment between a new node appearing and the
-  // device being marked created; no detach follows, so the engine reopens.
+  // A transport blip after the device worked: no detach follows, so the
+  // engine reopens it.
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  engine().poll(t0);
   pad->upload_errors = {ENODEV};
   board.publish(0, push(1.0, 0));
-  engine().poll(t0);
-  ASSERT_EQ(pad->of(Call::upload).size(), 1u);
-  EXPECT_EQ(pad->of(Call::upload)[0].result, ENODEV);
+  engine().poll(t0 + 20ms);  // the play (a write) goes first
+  engine().poll(t0 + 40ms);  // ENODEV
+  ASSERT_EQ(pad->of(Call::upload).size(), 2u);
+  EXPECT_EQ(pad->of(Call::upload)[1].result, ENODEV);
   engine().poll(t0 + 100ms);
   engine().poll(t0 + 300ms);  // < 250 ms since ENODEV was first seen at 100 ms
   EXPECT_EQ(opens["/dev/input/event1"], 1);
-  EXPECT_EQ(pad->of(Call::upload).size(), 1u);
   engine().poll(t0 + 360ms);
   EXPECT_EQ(opens["/dev/input/event1"], 2);
   const auto ups = constant_uploads(*pad);
-  ASSERT_EQ(ups.size(), 2u);
-  EXPECT_EQ(ups[1].effect.id, -1);
-  EXPECT_EQ(ups[1].result, 0);
+  ASSERT_EQ(ups.size(), 3u);
+  EXPECT_EQ(ups[2].effect.id, -1);
+  EXPECT_EQ(ups[2].result, 0);
   EXPECT_EQ(stats.ff_devices.load(), 1);
   EXPECT_EQ(stats.ff.live_effects.load(), 1);
 }
@@ -286,7 +669,7 @@ TEST_F(Engine, TwoToolsOnOnePadAddUpInItsPlane) {
   engine().poll(t0);
   const auto ups = constant_uploads(*pad);
   ASSERT_EQ(ups.size(), 1u);
-  EXPECT_EQ(ups[0].effect.u.constant.level, 16384);  // 1 N of 2
+  EXPECT_EQ(ups[0].effect.u.constant.level, static_cast<int>(0.55 * 32767));  // 1 N of 2
   EXPECT_EQ(ups[0].effect.direction, 0x4000);
 }
 
@@ -298,7 +681,7 @@ TEST_F(Engine, ShutdownStopsAndErasesEveryDevice) {
   engine().poll(t0);
   board.publish(0, push(1.0, 0, true, 0.01));
   board.publish(1, push(1.0, 0, true, 0.01));
-  engine().poll(t0 + 30ms);
+  for (int i = 1; i < 20; ++i) engine().poll(t0 + std::chrono::milliseconds(12 * i));
   EXPECT_EQ(a->live(), 2);
   EXPECT_EQ(b->live(), 1);
   engine().shutdown();
@@ -314,19 +697,29 @@ TEST_F(Engine, ShutdownStopsAndErasesEveryDevice) {
 TEST_F(Engine, ConfigureChangesGainAndPacing) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_GAIN}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  engine().poll(t0);  // the constant's id first
+  EXPECT_TRUE(pad->of(Call::write).empty());
+  engine().poll(t0 + 10ms);  // then FF_GAIN: a write like any other, paced
+  ASSERT_EQ(pad->of(Call::write).size(), 1u);
+  EXPECT_EQ(pad->of(Call::write)[0].id, FF_GAIN);
   HapticsSettings s = settings;
   s.gain = 0x2000;
-  s.min_upload_interval = 100ms;
+  s.pacing.other = 100ms;
   engine().configure(s);
-  bool gain_written = false;
-  for (const auto& w : pad->of(Call::write)) gain_written |= (w.id == FF_GAIN && w.value == 0x2000);
-  EXPECT_TRUE(gain_written);
-  board.publish(0, push(1.0, 0));
+  auto gain_written = [&] {
+    for (const auto& w : pad->of(Call::write))
+      if (w.id == FF_GAIN && w.value == 0x2000) return true;
+    return false;
+  };
+  EXPECT_FALSE(gain_written()) << "paced: not inside the interval";
   engine().poll(t0 + 50ms);
-  EXPECT_EQ(constant_uploads(*pad).size(), 1u);  // 100 ms now
-  engine().poll(t0 + 100ms);
-  EXPECT_EQ(constant_uploads(*pad).size(), 2u);
+  EXPECT_FALSE(gain_written()) << "100 ms now";
+  engine().poll(t0 + 110ms);
+  EXPECT_TRUE(gain_written());
+  engine().poll(t0 + 150ms);
+  EXPECT_EQ(plays(*pad).size(), 0u);
+  engine().poll(t0 + 210ms);
+  EXPECT_EQ(plays(*pad).size(), 1u);
 }
 
 TEST_F(Engine, DisablingHapticsErasesAndClosesDevices) {
@@ -341,7 +734,7 @@ TEST_F(Engine, DisablingHapticsErasesAndClosesDevices) {
   EXPECT_EQ(stats.ff_devices.load(), 0);
   s.enabled = true;
   engine().configure(s);
-  engine().poll(t0 + 1ms);
+  engine().poll(t0 + 10ms);  // a reopened device keeps its transport's pacing
   EXPECT_EQ(pad->live(), 1);
   EXPECT_EQ(opens["/dev/input/event1"], 2);
 }

@@ -18,7 +18,7 @@ TEST(HapticsThread, AttachPollUpdateAndStopErases) {
   FeedbackBoard board(1);
   auto pad = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   HapticsSettings settings;
-  settings.min_upload_interval = std::chrono::milliseconds(0);
+  settings.pacing.other = std::chrono::milliseconds(0);
   HapticsThread thread(board, settings, [&](const std::string& node) -> std::unique_ptr<FfPort> {
     return std::make_unique<FakePort>(pad, node);
   });
@@ -32,6 +32,7 @@ TEST(HapticsThread, AttachPollUpdateAndStopErases) {
   Felt f;
   f.force = {1.0, 0, 0};
   f.contacts = 1;
+  f.touching = true;
   board.publish(0, f);
   thread.flush();
   EXPECT_EQ(thread.stats().ff.uploads.load(), 2u);
@@ -61,6 +62,39 @@ TEST(HapticsThread, DetachFromAnotherThreadForgets) {
   EXPECT_EQ(thread.stats().devices.load(), 0);
   thread.stop();
   thread.stop();  // idempotent
+}
+
+TEST(HapticsThread, TuneFromAnyThreadSeenAtOnceKeptAcrossReplug) {
+  FeedbackBoard board(1);
+  auto pad = fake_device({FF_RUMBLE}, 16);
+  pad->identity.bustype = BUS_BLUETOOTH;
+  HapticsThread thread(board, HapticsSettings{}, [&](const std::string& node) -> std::unique_ptr<FfPort> {
+    return std::make_unique<FakePort>(pad, node);
+  });
+  thread.start();
+  EXPECT_EQ(thread.bustype(3), 0);
+  thread.attach(3, "/dev/input/event4", {{0, StickPlane{}}});
+  thread.flush();
+  EXPECT_EQ(thread.bustype(3), BUS_BLUETOOTH);
+  EXPECT_EQ(thread.tuning(3), DeviceTuning{});
+  thread.tune(3, {0.25, 0.5});
+  EXPECT_EQ(thread.tuning(3), (DeviceTuning{0.25, 0.5}));
+  EXPECT_THROW(thread.tune(3, {0.5, 1.5}), std::invalid_argument);
+  EXPECT_THROW(thread.tune(-1, {}), std::invalid_argument);
+  EXPECT_EQ(thread.tuning(3), (DeviceTuning{0.25, 0.5}));
+  thread.detach(3);
+  thread.flush();
+  EXPECT_EQ(thread.bustype(3), 0);
+  thread.attach(3, "/dev/input/event4", {{0, StickPlane{}}});
+  thread.flush();
+  EXPECT_EQ(thread.tuning(3), (DeviceTuning{0.25, 0.5}));
+  thread.configure(HapticsSettings{});  // SIGHUP: the config again
+  thread.flush();
+  EXPECT_EQ(thread.tuning(3), DeviceTuning{});
+  thread.resumed();  // logind: back from suspend
+  thread.flush();
+  EXPECT_EQ(thread.stats().resumes.load(), 1u);
+  thread.stop();
 }
 
 TEST(HapticsThread, StopWithoutStartIsHarmless) {

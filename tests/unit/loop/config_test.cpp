@@ -65,19 +65,36 @@ max_scale = 2.0
 [haptics]
 enabled = false
 poll_interval_ms = 8
-min_upload_interval_ms = 40
+usb_interval_ms = 12
+bluetooth_interval_ms = 30
+other_interval_ms = 40
+stall_after_ms = 20
+effect_length_ms = 30000
+rearm_every_ms = 4000
 gain = 1000
 constant = false
 rumble_on_onset = false
 full_scale_newton = 3.0
-dead_band_newton = 0.1
-max_level = 20000
+min_level = 0.2
+force_exponent = 0.7
+level_gain = 0.9
+level_limit = 0.6
+contact_strong_ratio = 0.1
 rumble_full_scale_impulse = 0.5
 rumble_min_impulse = 0.01
 rumble_weak_ratio = 0.25
 rumble_length_ms = 80
 level_step = 100
 direction_step = 300
+
+[[haptics.device]]
+vendor = 0x054c
+product = 0x0ce6
+level_limit = 0.3
+
+[[haptics.device]]
+name = "Xbox"
+level_gain = 0.5
 
 [input]
 dead_zone = 0.1
@@ -106,13 +123,26 @@ name = "pad"
   EXPECT_EQ(c.max_scale, 2.0);
   EXPECT_FALSE(c.haptics.enabled);
   EXPECT_EQ(c.haptics.poll_interval.count(), 8);
-  EXPECT_EQ(c.haptics.min_upload_interval.count(), 40);
+  EXPECT_EQ(c.haptics.pacing.usb.count(), 12);
+  EXPECT_EQ(c.haptics.pacing.bluetooth.count(), 30);
+  EXPECT_EQ(c.haptics.pacing.other.count(), 40);
+  EXPECT_EQ(c.haptics.stall_after.count(), 20);
+  EXPECT_EQ(c.haptics.effect_length.count(), 30000);
+  EXPECT_EQ(c.haptics.rearm_every.count(), 4000);
   EXPECT_EQ(c.haptics.gain, 1000);
   EXPECT_FALSE(c.haptics.constant);
   EXPECT_FALSE(c.haptics.rumble_on_onset);
   EXPECT_EQ(c.haptics.force.full_scale_newton, 3.0);
-  EXPECT_EQ(c.haptics.force.dead_band_newton, 0.1);
-  EXPECT_EQ(c.haptics.force.max_level, 20000.0);
+  EXPECT_EQ(c.haptics.force.min_level, 0.2);
+  EXPECT_EQ(c.haptics.force.exponent, 0.7);
+  EXPECT_EQ(c.haptics.tuning, (haptics::DeviceTuning{0.9, 0.6}));
+  EXPECT_EQ(c.haptics.rumble.contact_strong_ratio, 0.1);
+  ASSERT_EQ(c.haptics.devices.size(), 2u);
+  EXPECT_EQ(c.haptics.devices[0].match.vendor.value_or(0), 0x054c);
+  EXPECT_EQ(c.haptics.devices[0].match.product.value_or(0), 0x0ce6);
+  EXPECT_EQ(c.haptics.devices[0].tuning, (haptics::DeviceTuning{0.9, 0.3}));  // [haptics]'s gain, its own limit
+  EXPECT_EQ(c.haptics.devices[1].match.name, "Xbox");
+  EXPECT_EQ(c.haptics.devices[1].tuning, (haptics::DeviceTuning{0.5, 0.6}));
   EXPECT_EQ(c.haptics.rumble.full_scale_impulse, 0.5);
   EXPECT_EQ(c.haptics.rumble.min_impulse, 0.01);
   EXPECT_EQ(c.haptics.rumble.weak_ratio, 0.25);
@@ -134,6 +164,12 @@ TEST(Config, ErrorsNameFileLineAndKey) {
   EXPECT_NE(error_of("[daemon]\nlog_level = \"loud\"\n").find("daemon.log_level"), std::string::npos);
   EXPECT_EQ(error_of("[daemon]\nwake_early_us = 900\n"), "test.conf:2: daemon.wake_early_us: must be within [0, 500]");
   EXPECT_NE(error_of("[haptics]\ngain = 70000\n").find("test.conf:2: haptics.gain: must be within"), std::string::npos);
+  EXPECT_NE(error_of("[haptics]\nlevel_limit = 1.5\n").find("haptics.level_limit: must be within [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(error_of("[[haptics.device]]\nlevel_gain = 0.5\n").find("needs at least one of vendor, product, name"),
+            std::string::npos);
+  EXPECT_NE(error_of("[haptics]\neffect_length_ms = 5000\nrearm_every_ms = 6000\n").find("haptics.rearm_every_ms"),
+            std::string::npos);
   EXPECT_NE(error_of("[tools]\nsize_step = 1\n").find("tools.size_step"), std::string::npos);
   EXPECT_NE(error_of("daemon = 3\n").find("daemon: must be a table"), std::string::npos);
   EXPECT_NE(error_of("[daemon\n").find("test.conf:1:"), std::string::npos);  // TOML syntax

@@ -72,10 +72,10 @@ int free_effect_ids(const std::string& node) {
 HapticsSettings fast_settings() {
   HapticsSettings s;
   s.poll_interval = 2ms;
-  s.min_upload_interval = 20ms;
+  s.pacing.usb = 20ms;  // the virtual joystick says BUS_USB
   s.gain = 0xc000;
-  s.force = ForceScale{2.0, 0.05, 0x7fff};
-  s.rumble = RumbleScale{0.02, 1e-5, 0.5, 60, 0.0};
+  s.force = ForceScale{2.0, 0.1, 1.0};
+  s.rumble = RumbleScale{0.02, 1e-5, 0.5, 40, 0.0, 0.25};
   return s;
 }
 
@@ -86,13 +86,14 @@ TEST(HapticsVm, FfDeviceUploadsOnceThenTenThousandUpdatesInPlace) {
   {
     auto dev = FfDevice::open(joy.event_node(), {}, &counters);
     ASSERT_EQ(dev->mode(), FfMode::constant);
-    ASSERT_TRUE(dev->set_constant({100, 0x4000}));
+    ASSERT_TRUE(dev->upload_constant({100, 0x4000}, 20000));
+    ASSERT_TRUE(dev->play(FfDevice::Effect::constant));
     const std::int16_t id = dev->constant_id();
     ASSERT_GE(id, 0);
     const int free_before = free_effect_ids(joy.event_node());
     for (int i = 0; i < 10000; ++i) {
       const ConstantCommand c{static_cast<std::int16_t>(i % 0x7fff), static_cast<std::uint16_t>(i * 97)};
-      ASSERT_TRUE(dev->set_constant(c)) << "update " << i;
+      ASSERT_TRUE(dev->upload_constant(c, 20000)) << "update " << i;
       ASSERT_EQ(dev->constant_id(), id) << "update " << i;
     }
     EXPECT_EQ(free_effect_ids(joy.event_node()), free_before);  // the free-id count stayed flat
@@ -134,7 +135,8 @@ TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
     EXPECT_EQ(constants[i].id, id) << i;
     EXPECT_EQ(constants[i].retval, 0);
   }
-  // Paced: no more than one upload per min_upload_interval (+ the first).
+  EXPECT_EQ(haptics.bustype(0), BUS_USB);
+  // Paced: no more than one write per 20 ms USB interval (+ the first).
   const auto intervals = elapsed / 20ms;
   EXPECT_LE(static_cast<long>(constants.size()), static_cast<long>(intervals) + 2);
   EXPECT_LT(constants.size(), 10000u / 4);
@@ -154,12 +156,12 @@ TEST(HapticsVm, ContactDirectionAndLevelReachTheDevice) {
   board.publish(0, contact(-1.0, 0));  // pushed back along −x: the stick is pushed left
   ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
     for (const auto& u : l.uploads)
-      if (u.effect.type == FF_CONSTANT && u.effect.u.constant.level == 16384) return true;
+      if (u.effect.type == FF_CONSTANT && u.effect.u.constant.level == 18021) return true;  // 1 N of 2: 0.55
     return false;
   }));
   const auto constants = uploads_of(joy.log(), FF_CONSTANT);
   EXPECT_EQ(constants.back().effect.direction, 0xC000);
-  EXPECT_EQ(constants.back().effect.replay.length, 0);
+  EXPECT_EQ(constants.back().effect.replay.length, 20000);  // finite; re-armed by a play every 5 s
 }
 
 TEST(HapticsVm, RumbleKickOnOnset) {
@@ -176,30 +178,44 @@ TEST(HapticsVm, RumbleKickOnOnset) {
   }));
   const auto rumbles = uploads_of(joy.log(), FF_RUMBLE);
   ASSERT_EQ(rumbles.size(), 1u);
-  EXPECT_EQ(rumbles[0].effect.u.rumble.strong_magnitude, 32768);
+  EXPECT_EQ(rumbles[0].effect.u.rumble.strong_magnitude, 32767);
   EXPECT_GT(rumbles[0].effect.replay.length, 0);
   EXPECT_NE(rumbles[0].id, uploads_of(joy.log(), FF_CONSTANT)[0].id);
   haptics.flush();  // the device saw the play before the thread counted the kick
   EXPECT_EQ(haptics.stats().ff.kicks.load(), 1u);
 }
 
-TEST(HapticsVm, RumbleOnlyPadGetsKicksAndNoConstant) {
+TEST(HapticsVm, RumbleOnlyPadFeelsTheForceAndKicksInOneEffect) {
   VirtualJoystick joy(JoystickSpec::rumble_pad());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
   haptics.attach(0, joy.event_node(), {{0, kPlane}});
-  haptics.flush();
-  board.publish(0, contact(1.0, 0, true, 0.02));
-  ASSERT_TRUE(joy.wait_for([](const FfLog& l) { return !uploads_of(l, FF_RUMBLE).empty(); }));
-  haptics.flush();
-  board.publish(0, contact(-1.0, 0));  // a force: nothing to render it with on this pad
-  haptics.flush();
-  haptics.flush();
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    const auto r = uploads_of(l, FF_RUMBLE);
+    return !r.empty() && played(l, r[0].id, 1);
+  }));
+  board.publish(0, contact(1.0, 0, true, 0.02));  // a kick, then the contact level
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    const auto r = uploads_of(l, FF_RUMBLE);
+    return r.size() >= 3 && r.back().effect.u.rumble.weak_magnitude > r.back().effect.u.rumble.strong_magnitude;
+  }));
+  board.publish(0, Felt{});  // released: zero
+  ASSERT_TRUE(joy.wait_for([](const FfLog& l) {
+    const auto r = uploads_of(l, FF_RUMBLE);
+    return !r.back().effect.u.rumble.weak_magnitude && !r.back().effect.u.rumble.strong_magnitude;
+  }));
   const FfLog log = joy.log();
+  const auto r = uploads_of(log, FF_RUMBLE);
   EXPECT_TRUE(uploads_of(log, FF_CONSTANT).empty());
-  EXPECT_EQ(uploads_of(log, FF_RUMBLE).size(), 1u);
+  EXPECT_FALSE(r[0].old.has_value());
+  for (std::size_t i = 1; i < r.size(); ++i) {
+    EXPECT_TRUE(r[i].old.has_value()) << i;  // one effect, updated in place
+    EXPECT_EQ(r[i].id, r[0].id) << i;
+  }
+  EXPECT_GT(r[1].effect.u.rumble.strong_magnitude, r[1].effect.u.rumble.weak_magnitude) << "the kick";
   EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
+  EXPECT_EQ(free_effect_ids(joy.event_node()), 15);
 }
 
 TEST(HapticsVm, OneEffectIdHoldsTheConstant) {
@@ -312,7 +328,7 @@ TEST(HapticsVm, UnplugForgetsIdsAndReplugUploadsAgain) {
   }));
   const auto constants = uploads_of(joy.log(), FF_CONSTANT);
   EXPECT_FALSE(constants[0].old.has_value());  // a new effect (id −1), not an update of a dead id
-  EXPECT_EQ(constants[0].effect.u.constant.level, 16384);
+  EXPECT_EQ(constants[0].effect.u.constant.level, 18021);
   haptics.flush();
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
   EXPECT_EQ(haptics.stats().ff.errors.load(), 0u);
