@@ -142,6 +142,7 @@ const UhidPadSpec& dualsense_usb() {
     put_le32(firmware, 28, 0x0110002a);  // firmware version
     put_le16(firmware, 44, 0x0000);      // update version < 2.21: the classic rumble (valid_flag0)
     s.features = {sony_calibration(0x05, 41), pairing, firmware};
+    s.mac_reports = {0x09};
     s.motors = dualsense_usb_motors;
     s.motor_max = 255;
     s.idle_input.assign(64, 0);
@@ -201,6 +202,7 @@ const UhidPadSpec& dualshock4_usb() {
     put_le16(version, 35, 0x0100);  // hardware version
     put_le16(version, 41, 0x0800);  // firmware version
     s.features = {sony_calibration(0x02, 37), mac81, pairing12, version};
+    s.mac_reports = {0x81, 0x12};
     s.motors = dualshock4_usb_motors;
     s.motor_max = 255;
     s.idle_input.assign(64, 0);
@@ -296,7 +298,11 @@ std::atomic<int> pad_counter{0};
 }  // namespace
 
 UhidPad::UhidPad(const UhidPadSpec& spec, std::chrono::milliseconds bind_timeout) : spec_(spec) {
-  phys_ = "sculpt-uhid/" + std::to_string(::getpid()) + "/" + std::to_string(pad_counter.fetch_add(1));
+  const int number = pad_counter.fetch_add(1);
+  phys_ = "sculpt-uhid/" + std::to_string(::getpid()) + "/" + std::to_string(number);
+  for (auto& f : spec_.features)
+    for (std::uint8_t id : spec_.mac_reports)
+      if (f.size() > 6 && f[0] == id) f[1] = static_cast<std::uint8_t>(number);
   fd_ = UniqueFd(::open("/dev/uhid", O_RDWR | O_CLOEXEC | O_NONBLOCK));
   if (!fd_.valid()) {
     const int e = errno;

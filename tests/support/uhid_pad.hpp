@@ -67,6 +67,10 @@ struct UhidPadSpec {
   // Canned GET_REPORT answers, each starting with its report id; a request
   // for a report not listed is answered with EIO.
   std::vector<std::vector<std::uint8_t>> features;
+  // Feature reports whose bytes 1..6 are the pad's MAC address: each UhidPad
+  // gets its own (byte 1 counts pads), since the Sony drivers refuse a pad
+  // with the MAC of one still bound.
+  std::vector<std::uint8_t> mac_reports;
   // The motor bytes an output report carries, or nullopt when the report
   // does not set the motors (LEDs only, another report id).
   std::function<std::optional<Motors>(const OutputReport&)> motors;

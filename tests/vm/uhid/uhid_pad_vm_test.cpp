@@ -15,6 +15,7 @@
 #include <chrono>
 #include <string>
 
+#include "support/evdev_client.hpp"
 #include "support/uhid_pad.hpp"
 #include "support/unique_fd.hpp"
 
@@ -60,6 +61,30 @@ TEST(UhidPad, DualSenseAnswersTheFeatureReportsTheDriverAsksFor) {
   for (std::uint8_t id : {0x05, 0x09, 0x20})
     EXPECT_NE(std::find(asked.begin(), asked.end(), id), asked.end()) << "report 0x" << std::hex << int(id);
   EXPECT_GE(pad.event_nodes().size(), 3u);  // gamepad, motion sensors, touchpad
+}
+
+TEST_P(UhidPadBinds, InputReportsReachTheGamepadNode) {
+  const UhidPadSpec& spec = *GetParam();
+  UhidPad pad(spec);
+  EvdevClient ev(pad.ff_node());  // the gamepad: sticks and buttons, and the FF
+  pad.send_input(spec.idle_input);
+  std::vector<std::uint8_t> moved = spec.idle_input;
+  moved[spec.bus == BUS_BLUETOOTH ? 2 : 1] = 0xff;  // left stick X to the right (the high byte on Xbox)
+  pad.send_input(moved);
+  const int want = spec.bus == BUS_BLUETOOTH ? 0xff00 : 0xff;  // at rest 0x8000 / 0x80
+  int last_x = -1;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (last_x != want && std::chrono::steady_clock::now() < deadline) {
+    const auto e = ev.next_event(std::chrono::milliseconds(200));
+    if (e && e->type == EV_ABS && e->code == ABS_X) last_x = e->value;
+  }
+  EXPECT_EQ(last_x, want) << "ABS_X did not follow the input report";
+}
+
+TEST(UhidPad, TwoPadsOfOneKindAtOnce) {
+  UhidPad a(uhid_pads::dualshock4_usb());
+  UhidPad b(uhid_pads::dualshock4_usb());  // its own MAC: hid-sony takes both
+  EXPECT_NE(a.ff_node(), b.ff_node());
 }
 
 TEST(UhidPad, DualSenseHidrawWritesAreRecorded) {
