@@ -3,14 +3,21 @@
 This machine's kernel has no uinput; Debian's does, as a module. We take the
 package `linux-image-amd64` points at, and keep from it only what the VM needs:
 the uncompressed vmlinux (it carries a PVH note, so qemu boots it directly,
-about twice as fast as vmlinuz under TCG) and the evdev and uinput modules
-(plain .ko files with no dependencies between them).
+about twice as fast as vmlinuz under TCG) and the modules in MODULES: evdev
+and uinput (the uinput tests, no dependencies), and the HID stack the uhid
+tests bind the kernel's own gamepad drivers with. MODULES is in dependency
+order (`depends=` of each .ko's .modinfo, checked on 6.1.0-56): the guest
+insmods them in that order.
 
 Cache layout (${XDG_CACHE_HOME:-~/.cache}/sculptd/kernel/):
     current                    name of the entry in use
-    <package>_<version>/       linux-image-*.deb, vmlinux, evdev.ko, uinput.ko,
-                               release (uname -r of the guest)
-A warm cache needs neither network nor apt. SCULPTD_VM_REFRESH_KERNEL=1 (or
+    <package>_<version>/       linux-image-*.deb, vmlinux, one .ko per MODULES
+                               entry, release (uname -r of the guest)
+A warm cache needs neither network nor apt. `modules` in an entry names the
+MODULES it was unpacked for: an entry written before a module was added to
+MODULES is completed from the .deb it holds (no network). A module the
+package lacks is left out (only evdev and uinput must be there: the uhid
+tests fail on their own, saying which is missing). SCULPTD_VM_REFRESH_KERNEL=1 (or
 `sculpt-vm kernel --refresh`) looks for a newer package.
 """
 
@@ -29,7 +36,30 @@ from dataclasses import dataclass
 from pathlib import Path
 
 META_PACKAGE = "linux-image-amd64"
-MODULES = ("evdev", "uinput")
+# name -> where it lives under /lib/modules/<release>/kernel/, in insmod order.
+MODULES = {
+    "evdev": "drivers/input/evdev.ko",
+    "uinput": "drivers/input/misc/uinput.ko",
+    # The uhid gamepads (tests/vm/uhid): depends= hid (none), uhid (hid),
+    # ff-memless (none), led-class-multicolor (none; led-class is built in),
+    # usb-common (none), usbcore (usb-common), usbhid (hid, usbcore),
+    # hid-playstation (hid, led-class-multicolor, ff-memless),
+    # hid-sony (hid, usbcore, usbhid, ff-memless), hid-microsoft (hid, ff-memless).
+    # hidraw is part of hid.ko (CONFIG_HIDRAW=y).
+    "hid": "drivers/hid/hid.ko",
+    "uhid": "drivers/hid/uhid.ko",
+    "ff-memless": "drivers/input/ff-memless.ko",
+    "led-class-multicolor": "drivers/leds/led-class-multicolor.ko",
+    "usb-common": "drivers/usb/common/usb-common.ko",
+    "usbcore": "drivers/usb/core/usbcore.ko",
+    "usbhid": "drivers/hid/usbhid/usbhid.ko",
+    "hid-playstation": "drivers/hid/hid-playstation.ko",
+    "hid-sony": "drivers/hid/hid-sony.ko",
+    "hid-microsoft": "drivers/hid/hid-microsoft.ko",
+}
+# Without these the guest does not boot its tests; the others only fail the
+# uhid tests (initramfs.py).
+REQUIRED_MODULES = ("evdev", "uinput")
 XZ_MAGIC = b"\xfd7zXZ\x00"
 
 
@@ -65,26 +95,61 @@ def cache_lock(name: str = "lock"):
 
 
 def _load(directory: Path) -> GuestKernel | None:
+    """The entry in `directory` if it is complete (vmlinux and every module)."""
     try:
         release = (directory / "release").read_text().strip()
         package = (directory / "package").read_text().strip()
     except OSError:
         return None
+    try:
+        looked_for = set((directory / "modules").read_text().split())
+    except OSError:
+        looked_for = set()
+    if not set(MODULES) <= looked_for:
+        return None   # unpacked for fewer modules: _complete_from_deb
     vmlinux = directory / "vmlinux"
-    modules = {m: directory / f"{m}.ko" for m in MODULES}
-    if not vmlinux.is_file() or not all(p.is_file() for p in modules.values()):
+    modules = {m: directory / f"{m}.ko" for m in MODULES if (directory / f"{m}.ko").is_file()}
+    if not vmlinux.is_file() or not all(m in modules for m in REQUIRED_MODULES):
         return None
     return GuestKernel(directory, vmlinux, modules, release, package)
 
 
-def cached() -> GuestKernel | None:
-    """The cached kernel, or None. Never touches the network."""
+def _current_dir() -> Path | None:
     current = cache_root() / "kernel" / "current"
     try:
         name = current.read_text().strip()
     except OSError:
         return None
-    return _load(current.parent / name) if name else None
+    return current.parent / name if name else None
+
+
+def cached() -> GuestKernel | None:
+    """The cached kernel, or None. Never touches the network."""
+    d = _current_dir()
+    return _load(d) if d else None
+
+
+def _complete_from_deb(log) -> GuestKernel | None:
+    """The current entry, missing modules added from the .deb it keeps (an
+    entry from before MODULES grew). None when there is no such entry or .deb.
+    Call with the cache lock held."""
+    d = _current_dir()
+    if not d or not d.is_dir() or not (d / "release").is_file():
+        return None
+    debs = sorted(d.glob("linux-image-*.deb"))
+    if not debs:
+        return None
+    staging = Path(tempfile.mkdtemp(dir=d.parent, prefix=".complete-"))
+    try:
+        _unpack(debs[-1], staging, log, vmlinux=False)
+        for ko in sorted(staging.glob("*.ko")):
+            # Each file appears atomically: a reader of the entry (another
+            # build's run) sees a module whole or not at all.
+            ko.rename(d / ko.name)
+        (staging / "modules").rename(d / "modules")   # last: the entry is complete
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return _load(d)
 
 
 def _run(cmd: list[str], cwd: Path, log) -> str:
@@ -132,10 +197,10 @@ def _extract_vmlinux(vmlinuz: bytes) -> bytes:
                       "(Debian changed the kernel compression?)")
 
 
-def _unpack(deb: Path, dest: Path, log) -> str:
+def _unpack(deb: Path, dest: Path, log, vmlinux: bool = True) -> str | None:
     """Streams the package's data tarball, keeping vmlinuz and the modules only."""
-    log(f"extracting vmlinux, {', '.join(MODULES)} from {deb.name}")
-    wanted = {f"/{m}.ko": m for m in MODULES}
+    log(f"extracting {'vmlinux, ' if vmlinux else ''}{', '.join(MODULES)} from {deb.name}")
+    wanted = {f"/kernel/{rel}": m for m, rel in MODULES.items()}
     found: dict[str, bytes] = {}
     vmlinuz = None
     release = None
@@ -150,9 +215,10 @@ def _unpack(deb: Path, dest: Path, log) -> str:
             m = re.fullmatch(r"/boot/vmlinuz-(.+)", path)
             if m:
                 release = m.group(1)
-                vmlinuz = tar.extractfile(member).read()
+                if vmlinux:
+                    vmlinuz = tar.extractfile(member).read()
                 continue
-            if "/kernel/drivers/input/" not in path:
+            if "/kernel/drivers/" not in path:
                 continue
             for suffix in ("", ".xz"):
                 for tail, mod in wanted.items():
@@ -161,15 +227,20 @@ def _unpack(deb: Path, dest: Path, log) -> str:
                         found[mod] = lzma.decompress(data) if suffix else data
     if proc.wait() != 0:
         raise KernelError(f"dpkg-deb --fsys-tarfile {deb} failed with status {proc.returncode}")
-    if vmlinuz is None or release is None:
+    if release is None or (vmlinux and vmlinuz is None):
         raise KernelError(f"{deb.name} holds no /boot/vmlinuz-*")
-    missing = [m for m in MODULES if m not in found]
+    missing = [m for m in REQUIRED_MODULES if m not in found]
     if missing:
         raise KernelError(f"{deb.name} holds no {', '.join(m + '.ko' for m in missing)} "
                           "(built in? then the VM needs no insmod for it: adapt scripts/vm/initramfs.py)")
-    (dest / "vmlinux").write_bytes(_extract_vmlinux(vmlinuz))
+    if vmlinux:
+        (dest / "vmlinux").write_bytes(_extract_vmlinux(vmlinuz))
     for mod, data in found.items():
         (dest / f"{mod}.ko").write_bytes(data)
+    absent = [m for m in MODULES if m not in found]
+    if absent:
+        log(f"{deb.name} holds no {', '.join(absent)} (the uhid tests that need them will fail)")
+    (dest / "modules").write_text("\n".join(MODULES) + "\n")
     return release
 
 
@@ -180,6 +251,9 @@ def fetch(log=print, refresh: bool = False) -> GuestKernel:
         return k
     with cache_lock():
         if not refresh and (k := cached()):   # another run filled it meanwhile
+            return k
+        if not refresh and (k := _complete_from_deb(log)):
+            log(f"guest kernel {k.release}: modules added to {k.directory} from its .deb")
             return k
         kdir = cache_root() / "kernel"
         kdir.mkdir(parents=True, exist_ok=True)

@@ -132,6 +132,40 @@ class InitramfsTest(unittest.TestCase):
         self.assertLess(script.index("begin a_test"), script.index("end a_test"))
         self.assertTrue(script.rstrip().endswith("poweroff -f"))
 
+    def test_only_evdev_and_uinput_stop_the_boot(self):
+        script = initramfs.init_script("6.1.0", [], {}, 60, ["evdev", "uinput", "hid", "uhid", "hid-sony"],
+                                       probe_only=False)
+        self.assertIn("insmod /lib/sculpt/uinput.ko || die", script)
+        for m in ("hid", "uhid", "hid-sony"):
+            line = next(l for l in script.splitlines() if l.startswith(f"insmod /lib/sculpt/{m}.ko"))
+            self.assertNotIn("die", line)
+            self.assertIn(initramfs.INSMOD_LOG, line)   # the uhid tests report it
+        # In the order given (guest_kernel.MODULES is in dependency order).
+        self.assertLess(script.index("/hid.ko"), script.index("/uhid.ko"))
+        self.assertLess(script.index("/uhid.ko"), script.index("/hid-sony.ko"))
+
+
+class GuestKernelCacheTest(unittest.TestCase):
+    """An entry unpacked before MODULES grew is completed from its own .deb."""
+
+    def test_entry_without_the_new_modules_is_incomplete(self):
+        import guest_kernel
+        with tempfile.TemporaryDirectory() as d:
+            entry = Path(d)
+            for name, text in (("release", "6.1.0-56-amd64"), ("package", "linux-image-6.1.0-56-amd64 1")):
+                (entry / name).write_text(text + "\n")
+            for f in ("vmlinux", "evdev.ko", "uinput.ko"):
+                (entry / f).write_bytes(b"x")
+            self.assertIsNone(guest_kernel._load(entry))   # no `modules`: an old entry
+            (entry / "modules").write_text("evdev\nuinput\n")
+            self.assertIsNone(guest_kernel._load(entry))   # unpacked for fewer modules
+            (entry / "modules").write_text("\n".join(guest_kernel.MODULES) + "\n")
+            k = guest_kernel._load(entry)                  # complete; the package lacked the rest
+            self.assertIsNotNone(k)
+            self.assertEqual(list(k.modules), ["evdev", "uinput"])
+            (entry / "hid.ko").write_bytes(b"x")
+            self.assertEqual(list(guest_kernel._load(entry).modules), ["evdev", "uinput", "hid"])
+
 
 class WithAndUdevdTest(unittest.TestCase):
     """--with copies paths to the same absolute path (ELF files with their
