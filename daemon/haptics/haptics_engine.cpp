@@ -61,7 +61,7 @@ void HapticsEngine::open_ff(Attached& d) {
   }
 }
 
-void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools) {
+void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools, TriggerBinding triggers) {
   if (devices_.count(slot)) detach_alive(slot);
   const auto interval = std::chrono::duration_cast<std::chrono::nanoseconds>(settings_.min_upload_interval);
   Attached d{node, std::move(tools), nullptr, ConstantPacer(interval, settings_.change), KickPacer(interval), {}, false,
@@ -70,10 +70,12 @@ void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolSt
   open_ff(d);
   devices_.emplace(slot, std::move(d));
   stats_.devices.fetch_add(1, std::memory_order_relaxed);
+  attach_triggers(slot, node, triggers);
 }
 
 void HapticsEngine::detach_alive(int slot) {
   // Replaced while still plugged in (no detach came): stop and erase properly.
+  detach_triggers(slot, false);
   auto it = devices_.find(slot);
   if (it == devices_.end()) return;
   if (it->second.ff) {
@@ -85,6 +87,7 @@ void HapticsEngine::detach_alive(int slot) {
 }
 
 void HapticsEngine::detach(int slot) {
+  detach_triggers(slot, true);
   auto it = devices_.find(slot);
   if (it == devices_.end()) return;
   if (it->second.ff) {
@@ -116,6 +119,7 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
       d.ff->set_gain(settings_.gain);
     }
   }
+  configure_triggers();
 }
 
 void HapticsEngine::poll(Clock::time_point now) {
@@ -125,6 +129,7 @@ void HapticsEngine::poll(Clock::time_point now) {
     if (d.ff && !d.ff->gone()) poll_device(d, now);
     count_uploads(slot, d);
   }
+  poll_triggers(now);
 }
 
 void HapticsEngine::count_uploads(int slot, Attached& d) {
@@ -180,6 +185,7 @@ void HapticsEngine::poll_device(Attached& d, Clock::time_point now) {
 }
 
 void HapticsEngine::shutdown() {
+  shutdown_triggers();
   for (auto& [slot, d] : devices_) {
     if (d.ff) {
       d.ff->shutdown();

@@ -19,6 +19,7 @@
 #include "haptics/ff_device.hpp"
 #include "haptics/ff_port.hpp"
 #include "haptics/pacer.hpp"
+#include "haptics/trigger_renderer.hpp"
 
 namespace sculpt::haptics {
 
@@ -38,10 +39,14 @@ struct HapticsSettings {
   std::uint16_t gain = 0xffff;                          // FF_GAIN
   bool constant = true;                                 // FF_CONSTANT from the contact force
   bool rumble_on_onset = true;                          // FF_RUMBLE kick when contact begins
+  TriggerSettings triggers{};                           // DualSense adaptive triggers (trigger_renderer.hpp)
 };
 
 // Opens an event node for FF; the default is open_evdev_port.
 using PortOpener = std::function<std::unique_ptr<FfPort>(const std::string& node)>;
+// Finds and opens the DualSense hidraw node behind an event node; the default
+// is open_dualsense_hidraw (nullopt: not a DualSense; throws: cannot open).
+using TriggerOpener = std::function<std::optional<DualSenseHidraw>(const std::string& event_node)>;
 
 // Where the engine's few messages go (device opened, no FF, open failed):
 // priority is syslog's (4 warning, 6 info). Empty: stderr with the sd-daemon
@@ -57,6 +62,7 @@ struct HapticsStats {
   // replugged device keeps), counted since the daemon started.
   static constexpr int kSlots = 16;
   std::array<std::atomic<std::uint64_t>, kSlots> slot_uploads{};
+  TriggerCounters triggers;                   // DualSense trigger reports
 };
 
 class HapticsEngine {
@@ -68,7 +74,8 @@ class HapticsEngine {
   // A device appeared on `slot` (the input layer's stable slot) at `node`,
   // driving `tools`. Replaces what was on the slot (that one is shut down).
   // Open failures are counted and logged, never thrown.
-  void attach(int slot, const std::string& node, std::vector<ToolStick> tools);
+  // `triggers`: which tools a DualSense's triggers drive (none: not driven).
+  void attach(int slot, const std::string& node, std::vector<ToolStick> tools, TriggerBinding triggers = {});
   // Unplugged: the kernel already dropped its effects; forget the ids.
   void detach(int slot);
   void configure(const HapticsSettings& settings);
@@ -78,8 +85,11 @@ class HapticsEngine {
   // Stop and erase every effect of every device, close them. Idempotent.
   void shutdown();
 
+  void set_trigger_opener(TriggerOpener opener) { trigger_opener_ = std::move(opener); }
+
   // For tests and logs.
   const FfDevice* device(int slot) const;
+  const TriggerRenderer* triggers(int slot) const;
   const std::string& last_error() const { return last_error_; }
 
  private:
@@ -104,6 +114,20 @@ class HapticsEngine {
   void reopen_if_still_plugged(Attached& d, Clock::time_point now);
   void count_uploads(int slot, Attached& d);
 
+  // DualSense triggers (haptics_engine_triggers.cpp), beside the FF devices:
+  // a slot's renderer lives as long as its attach.
+  struct TriggerSlot {
+    std::string node;
+    TriggerBinding binding;
+    std::unique_ptr<TriggerRenderer> renderer;  // null: not a DualSense, no access, or disabled
+  };
+  void attach_triggers(int slot, const std::string& node, TriggerBinding binding);
+  void open_triggers(TriggerSlot& t);
+  void detach_triggers(int slot, bool unplugged);
+  void configure_triggers();
+  void poll_triggers(Clock::time_point now);
+  void shutdown_triggers();
+
   const FeedbackBoard& board_;
   HapticsSettings settings_;
   PortOpener opener_;
@@ -111,6 +135,9 @@ class HapticsEngine {
   LogSink log_;
   std::map<int, Attached> devices_;
   std::string last_error_;
+  TriggerOpener trigger_opener_ = [](const std::string& node) { return open_dualsense_hidraw(node); };
+  std::map<int, TriggerSlot> trigger_slots_;
+  bool told_no_trigger_access_ = false;  // EACCES on a hidraw node is said once
 };
 
 }  // namespace sculpt::haptics
