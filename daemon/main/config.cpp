@@ -151,7 +151,8 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "haptics",
              {"enabled", "poll_interval_ms", "min_upload_interval_ms", "gain", "constant", "rumble_on_onset",
               "full_scale_newton", "dead_band_newton", "max_level", "rumble_full_scale_impulse",
-              "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step"});
+              "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio", "rumble_length_ms", "level_step", "direction_step",
+              "triggers", "trigger_strength", "trigger_start"});
   const Reader r{file, t, "haptics"};
   auto& h = c.haptics;
   r.get("enabled", h.enabled);
@@ -172,6 +173,10 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
   if (r.get("rumble_length_ms", len, 1, 10000)) h.rumble.length_ms = static_cast<std::uint16_t>(len);
   r.get("level_step", h.change.level_step, 0, 0x7fff);
   r.get("direction_step", h.change.direction_step, 0, 0xffff);
+  r.get("triggers", h.triggers.enabled);
+  r.get("trigger_strength", h.triggers.strength, 0.0, 1.0);
+  int start = h.triggers.start;
+  if (r.get("trigger_start", start, 0, 255)) h.triggers.start = static_cast<std::uint8_t>(start);
 }
 
 }  // namespace
