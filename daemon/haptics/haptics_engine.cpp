@@ -136,7 +136,7 @@ void HapticsEngine::open_ff(Attached& d) {
   }
 }
 
-void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools) {
+void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolStick> tools, TriggerBinding triggers) {
   if (devices_.count(slot)) detach_alive(slot);
   Attached d{slot, node, std::move(tools), nullptr, DevicePlayer(PlayerTiming{}), {}, false, std::nullopt, 0, 0,
              std::nullopt, false};
@@ -145,10 +145,12 @@ void HapticsEngine::attach(int slot, const std::string& node, std::vector<ToolSt
   devices_.emplace(slot, std::move(d));
   stats_.devices.fetch_add(1, std::memory_order_relaxed);
   publish_tuning(slot);
+  attach_triggers(slot, node, triggers);
 }
 
 void HapticsEngine::detach_alive(int slot) {
   // Replaced while still plugged in (no detach came): stop and erase properly.
+  detach_triggers(slot, false);
   auto it = devices_.find(slot);
   if (it == devices_.end()) return;
   if (it->second.ff) {
@@ -160,6 +162,7 @@ void HapticsEngine::detach_alive(int slot) {
 }
 
 void HapticsEngine::detach(int slot) {
+  detach_triggers(slot, true);
   auto it = devices_.find(slot);
   if (it == devices_.end()) return;
   if (it->second.ff) {
@@ -189,6 +192,7 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
     }
   }
   for (int s = 0; s < HapticsStats::kSlots; ++s) publish_tuning(s);
+  configure_triggers();
 }
 
 bool HapticsEngine::silent(Clock::time_point now) {
@@ -260,6 +264,7 @@ void HapticsEngine::poll(Clock::time_point now, std::optional<std::chrono::nanos
     if (d.ff && !d.ff->gone()) poll_device(d, now, quiet);
     count_uploads(slot, d);
   }
+  poll_triggers(now);
 }
 
 void HapticsEngine::count_uploads(int slot, Attached& d) {
@@ -345,6 +350,7 @@ void HapticsEngine::watch_first_write(Attached& d, Clock::time_point now, bool a
 }
 
 void HapticsEngine::shutdown() {
+  shutdown_triggers();
   for (auto& [slot, d] : devices_) {
     if (d.ff) {
       d.ff->shutdown();

@@ -22,6 +22,7 @@
 #include "haptics/ff_device.hpp"
 #include "haptics/ff_port.hpp"
 #include "haptics/pacer.hpp"
+#include "haptics/trigger_renderer.hpp"
 
 namespace sculpt::haptics {
 
@@ -59,10 +60,14 @@ struct HapticsSettings {
   bool rumble_on_onset = true;                          // a kick when contact begins
   DeviceTuning tuning{};                                // every device's gain and limit...
   std::vector<DeviceOverride> devices;                  // ...unless the first matching override says otherwise
+  TriggerSettings triggers{};                           // DualSense adaptive triggers (trigger_renderer.hpp)
 };
 
 // Opens an event node for FF; the default is open_evdev_port.
 using PortOpener = std::function<std::unique_ptr<FfPort>(const std::string& node)>;
+// Finds and opens the DualSense hidraw node behind an event node; the default
+// is open_dualsense_hidraw (nullopt: not a DualSense; throws: cannot open).
+using TriggerOpener = std::function<std::optional<DualSenseHidraw>(const std::string& event_node)>;
 
 // Where the engine's few messages go (device opened, no FF, open failed):
 // priority is syslog's (4 warning, 6 info). Empty: stderr with the sd-daemon
@@ -93,6 +98,7 @@ struct HapticsStats {
     for (auto& g : slot_gain) g.store(1.0);
     for (auto& l : slot_limit) l.store(1.0);
   }
+  TriggerCounters triggers;                   // DualSense trigger reports
 };
 
 class HapticsEngine {
@@ -104,7 +110,8 @@ class HapticsEngine {
   // A device appeared on `slot` (the input layer's stable slot) at `node`,
   // driving `tools`. Replaces what was on the slot (that one is shut down).
   // Open failures are counted and logged, never thrown.
-  void attach(int slot, const std::string& node, std::vector<ToolStick> tools);
+  // `triggers`: which tools a DualSense's triggers drive (none: not driven).
+  void attach(int slot, const std::string& node, std::vector<ToolStick> tools, TriggerBinding triggers = {});
   // Unplugged: the kernel already dropped its effects; forget the ids.
   void detach(int slot);
   // SIGHUP: new settings; run-time tunes are dropped (the config rules again).
@@ -127,9 +134,12 @@ class HapticsEngine {
   // Stop and erase every effect of every device, close them. Idempotent.
   void shutdown();
 
+  void set_trigger_opener(TriggerOpener opener) { trigger_opener_ = std::move(opener); }
+
   // For tests and logs.
   const FfDevice* device(int slot) const;
   const DevicePlayer* player(int slot) const;
+  const TriggerRenderer* triggers(int slot) const;
   const std::string& last_error() const { return last_error_; }
   bool stalled() const { return stalled_; }
 
@@ -164,6 +174,21 @@ class HapticsEngine {
   DeviceTuning config_tuning(const Attached* d) const;
   void publish_tuning(int slot);
 
+  // DualSense triggers (haptics_engine_triggers.cpp), beside the FF devices:
+  // a slot's renderer lives as long as its attach.
+  struct TriggerSlot {
+    int slot = 0;
+    std::string node;
+    TriggerBinding binding;
+    std::unique_ptr<TriggerRenderer> renderer;  // null: not a DualSense, no access, or disabled
+  };
+  void attach_triggers(int slot, const std::string& node, TriggerBinding binding);
+  void open_triggers(TriggerSlot& t);
+  void detach_triggers(int slot, bool unplugged);
+  void configure_triggers();
+  void poll_triggers(Clock::time_point now);
+  void shutdown_triggers();
+
   const FeedbackBoard& board_;
   HapticsSettings settings_;
   PortOpener opener_;
@@ -180,6 +205,9 @@ class HapticsEngine {
   bool stalled_ = false;
   std::optional<std::chrono::nanoseconds> boot_offset_;  // CLOCK_BOOTTIME − CLOCK_MONOTONIC
   std::optional<Clock::time_point> last_resume_;
+  TriggerOpener trigger_opener_ = [](const std::string& node) { return open_dualsense_hidraw(node); };
+  std::map<int, TriggerSlot> trigger_slots_;
+  bool told_no_trigger_access_ = false;  // EACCES on a hidraw node is said once
 };
 
 }  // namespace sculpt::haptics

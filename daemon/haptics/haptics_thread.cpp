@@ -41,8 +41,8 @@ void HapticsThread::push(Command c) {
   wake_.notify_all();
 }
 
-void HapticsThread::attach(int slot, std::string node, std::vector<ToolStick> tools) {
-  push(Attach{slot, std::move(node), std::move(tools)});
+void HapticsThread::attach(int slot, std::string node, std::vector<ToolStick> tools, TriggerBinding triggers) {
+  push(Attach{slot, std::move(node), std::move(tools), triggers});
 }
 void HapticsThread::detach(int slot) { push(Detach{slot}); }
 void HapticsThread::configure(const HapticsSettings& settings) { push(Configure{settings}); }
@@ -104,7 +104,7 @@ void HapticsThread::run() {
     }
     for (auto& c : batch) {
       if (auto* a = std::get_if<Attach>(&c)) {
-        engine_.attach(a->slot, a->node, std::move(a->tools));
+        engine_.attach(a->slot, a->node, std::move(a->tools), a->triggers);
       } else if (auto* d = std::get_if<Detach>(&c)) {
         engine_.detach(d->slot);
       } else if (auto* s = std::get_if<Configure>(&c)) {

@@ -39,7 +39,7 @@ class HapticsThread {
   bool running() const { return thread_.joinable(); }
 
   // Thread-safe; applied at the thread's next wake-up (immediately woken).
-  void attach(int slot, std::string node, std::vector<ToolStick> tools);
+  void attach(int slot, std::string node, std::vector<ToolStick> tools, TriggerBinding triggers = {});
   void detach(int slot);
   void configure(const HapticsSettings& settings);  // SIGHUP: also drops run-time tunes
 
@@ -62,7 +62,7 @@ class HapticsThread {
   const HapticsStats& stats() const { return stats_; }
 
  private:
-  struct Attach { int slot; std::string node; std::vector<ToolStick> tools; };
+  struct Attach { int slot; std::string node; std::vector<ToolStick> tools; TriggerBinding triggers; };
   struct Detach { int slot; };
   struct Configure { HapticsSettings settings; };
   struct Tune { int slot; DeviceTuning tuning; };

@@ -173,7 +173,8 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
               "stall_after_ms", "effect_length_ms", "rearm_every_ms", "gain", "constant", "rumble_on_onset",
               "full_scale_newton", "min_level", "force_exponent", "level_gain", "level_limit",
               "rumble_full_scale_impulse", "rumble_min_impulse", "rumble_min_strength", "rumble_weak_ratio",
-              "rumble_length_ms", "contact_strong_ratio", "level_step", "direction_step", "device"});
+              "rumble_length_ms", "contact_strong_ratio", "level_step", "direction_step", "device", "triggers",
+              "trigger_strength", "trigger_start"});
   const Reader r{file, t, "haptics"};
   auto& h = c.haptics;
   r.get("enabled", h.enabled);
@@ -214,6 +215,10 @@ void read_haptics(const Path& file, const toml::table& t, DaemonConfig& c) {
       h.devices.push_back(read_device_override(file, *entry, i, h.tuning));
     }
   }
+  r.get("triggers", h.triggers.enabled);
+  r.get("trigger_strength", h.triggers.strength, 0.0, 1.0);
+  int start = h.triggers.start;
+  if (r.get("trigger_start", start, 0, 255)) h.triggers.start = static_cast<std::uint8_t>(start);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "main/device_hub.hpp"
 
+#include <linux/input-event-codes.h>
+
 #include <bit>
 
 #include "loop/scene_tools.hpp"
@@ -27,6 +29,20 @@ std::vector<haptics::ToolStick> tool_sticks(const input::DeviceBinding& b, std::
       ts.plane.y_axis = -1;
     }
     out.push_back(ts);
+  }
+  return out;
+}
+
+// Which tool each analog trigger drives: the trigger axis (ABS_Z left,
+// ABS_RZ right, as hid-playstation reports L2/R2) bound to a tool's depth
+// role. The haptics opens the pad's hidraw node only for a DualSense.
+haptics::TriggerBinding trigger_binding(const input::DeviceBinding& b) {
+  haptics::TriggerBinding out;
+  for (std::size_t i = 0; i < b.axis_count; ++i) {
+    const input::AxisBinding& a = b.axes[i];
+    if (a.tool == input::kNoTool || a.component != 2 || !a.calibration.unipolar) continue;  // a twist is no trigger
+    if (a.code == ABS_Z && out.left_tool < 0) out.left_tool = a.tool;
+    if (a.code == ABS_RZ && out.right_tool < 0) out.right_tool = a.tool;
   }
   return out;
 }
@@ -96,7 +112,7 @@ void DeviceHub::on_attach(std::uint8_t slot, const input::DeviceInfo& info) {
   push(input::InputMessage::attach(slot, b), "attach");
   log::info("device {}: {} [{}] on slot {}, drives {} tool(s)", info.node.empty() ? "(recorded)" : info.node,
             info.name, input::to_string(info.kind), slot, std::popcount(b.tool_mask));
-  if (haptics_ && !info.node.empty()) haptics_->attach(slot, info.node, tool_sticks(b, tools_));
+  if (haptics_ && !info.node.empty()) haptics_->attach(slot, info.node, tool_sticks(b, tools_), trigger_binding(b));
 }
 
 void DeviceHub::on_detach(std::uint8_t slot) {

@@ -86,6 +86,9 @@ rumble_weak_ratio = 0.25
 rumble_length_ms = 80
 level_step = 100
 direction_step = 300
+triggers = false
+trigger_strength = 0.5
+trigger_start = 40
 
 [[haptics.device]]
 vendor = 0x054c
@@ -148,6 +151,9 @@ name = "pad"
   EXPECT_EQ(c.haptics.rumble.weak_ratio, 0.25);
   EXPECT_EQ(c.haptics.rumble.length_ms, 80);
   EXPECT_EQ(c.haptics.change.level_step, 100);
+  EXPECT_FALSE(c.haptics.triggers.enabled);
+  EXPECT_EQ(c.haptics.triggers.strength, 0.5);
+  EXPECT_EQ(c.haptics.triggers.start, 40);
   EXPECT_EQ(c.haptics.change.direction_step, 300);
   // The input module's tables are handed on whole.
   EXPECT_TRUE(c.mapping_table.contains("input"));
