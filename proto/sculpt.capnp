@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 5;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault; 5: Session.undo, redo, history, exportSculpt
+const protocolMinor :UInt16 = 6;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault; 5: Session.undo, redo, history, exportSculpt; 6: Device.bus, gain, limit, Session.tuneHaptics
 
 struct Vec3 {
   x @0 :Float32;
@@ -197,7 +197,7 @@ struct HistogramBucket {
 
 enum FfSupport {
   none @0;
-  rumble @1;                       # rumble kicks only
+  rumble @1;                       # rumble only: the contact force as rumble, and kicks
   constant @2;                     # constant force (and rumble when the device has it)
 }
 
@@ -212,6 +212,12 @@ struct Device {
   ff @7 :FfSupport;
   tools @8 :List(UInt32);          # tool ids it drives
   ffUploads @9 :UInt64;
+  # (minor 6) Its transport ("usb", "bluetooth", "virtual", ...; "" unknown:
+  # it sets how often its motors may be updated), and its force-feedback
+  # tuning, each 0..1 of full: `gain` scales every level, `limit` caps it.
+  bus @10 :Text;
+  gain @11 :Float32 = 1.0;
+  limit @12 :Float32 = 1.0;
 }
 
 struct Result {
@@ -294,6 +300,13 @@ interface Session {
   # connection and 8 in all may be open (being written, or held): past that,
   # result.error says so.
   exportSculpt @11 () -> (result :Result, size :UInt64, reader :ExportReader);
+  # (minor 6) The force-feedback gain and hard limit of the device on `slot`
+  # (each 0..1 of full), until the daemon restarts or reloads its config
+  # (SIGHUP); the slot keeps them across unplug and replug. Only what is set
+  # changes; the reply has both as they are now. Refused (result.error) for
+  # an unknown slot, a value outside 0..1 (NaN included), or haptics off.
+  tuneHaptics @12 (slot :UInt32, setGain :Bool, gain :Float32, setLimit :Bool, limit :Float32)
+      -> (result :Result, gain :Float32, limit :Float32);
 }
 
 interface Subscription {

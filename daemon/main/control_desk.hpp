@@ -50,6 +50,9 @@ class ControlDesk final : public server::DaemonControl {
   kj::Promise<server::EditOutcome> redo(std::uint32_t count) override;
   server::History history() override;
   kj::Promise<server::ExportOutcome> export_sculpt() override;
+  server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) override {
+    return hub_.tune_haptics(slot, tune);
+  }
 
  private:
   SimHost& sims_;

@@ -1,8 +1,11 @@
 #include "main/device_hub.hpp"
 
-#include <linux/input-event-codes.h>
+#include <linux/input.h>
 
 #include <bit>
+#include <stdexcept>
+
+#include <fmt/format.h>
 
 #include "loop/scene_tools.hpp"
 #include "main/log.hpp"
@@ -91,14 +94,61 @@ void DeviceHub::carry_over(SculptStages& old, const std::vector<input::DeviceInf
   while (auto m = old.ring().try_pop()) push(*m, "queued");
 }
 
+namespace {
+// linux/input.h's bus types, as `sculptctl devices` shows them.
+std::string bus_name(std::uint16_t bustype) {
+  switch (bustype) {
+    case 0: return "";
+    case BUS_USB: return "usb";
+    case BUS_BLUETOOTH: return "bluetooth";
+    case BUS_VIRTUAL: return "virtual";
+    case BUS_I2C: return "i2c";
+    case BUS_HOST: return "host";
+    default: return fmt::format("bus 0x{:02x}", bustype);
+  }
+}
+}  // namespace
+
 std::vector<server::DeviceEntry> DeviceHub::entries() const {
   std::vector<server::DeviceEntry> out;
   for (const auto& [slot, d] : table_.entries()) {
     out.push_back(d);
     static_assert(haptics::HapticsStats::kSlots >= input::kMaxDevices, "a device slot without an FF counter");
-    if (haptics_ && slot < haptics::HapticsStats::kSlots)
-      out.back().ff_uploads = haptics_->stats().slot_uploads[slot].load(std::memory_order_relaxed);
+    if (haptics_ && slot < haptics::HapticsStats::kSlots) {
+      server::DeviceEntry& e = out.back();
+      e.ff_uploads = haptics_->stats().slot_uploads[slot].load(std::memory_order_relaxed);
+      e.bus = bus_name(haptics_->bustype(slot));
+      const haptics::DeviceTuning t = haptics_->tuning(slot);
+      e.gain = t.gain;
+      e.limit = t.limit;
+    }
   }
+  return out;
+}
+
+server::HapticsTuneOutcome DeviceHub::tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) {
+  server::HapticsTuneOutcome out;
+  if (slot > 0xff || !table_.entries().count(static_cast<std::uint8_t>(slot))) {
+    out.error = fmt::format("no device on slot {} (sculptctl devices lists them)", slot);
+    return out;
+  }
+  if (!haptics_) {
+    out.error = "force feedback is off ([haptics] enabled = false)";
+    return out;
+  }
+  haptics::DeviceTuning t = haptics_->tuning(static_cast<int>(slot));
+  if (tune.gain) t.gain = *tune.gain;
+  if (tune.limit) t.limit = *tune.limit;
+  try {
+    haptics_->tune(static_cast<int>(slot), t);
+    log::info("device on slot {}: force-feedback gain {:.3g}, limit {:.3g} (until a restart or reload)", slot, t.gain,
+              t.limit);
+  } catch (const std::invalid_argument& e) {
+    out.error = e.what();
+    t = haptics_->tuning(static_cast<int>(slot));
+  }
+  out.gain = t.gain;
+  out.limit = t.limit;
   return out;
 }
 

@@ -45,8 +45,12 @@ class DeviceHub final : public input::DeviceListener {
   // After a swap: the recorded devices `old` had attached, bound again and
   // queued as attaches, then what `old` still had queued.
   void carry_over(SculptStages& old, const std::vector<input::DeviceInfo>* recorded);
-  // `sculptctl devices`: the table, with each slot's FF upload count.
+  // `sculptctl devices`: the table, with each slot's FF upload count, bus
+  // and force-feedback tuning.
   std::vector<server::DeviceEntry> entries() const;
+  // `sculptctl haptics SLOT --gain G --limit L`: a listed slot's tuning, kept
+  // by the haptics thread for the slot (across replug) until a config reload.
+  server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune);
   // Tells the server which device drives each tool (again, after its scene changed).
   void tell_server();
 

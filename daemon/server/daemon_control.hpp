@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,18 @@ struct DeviceEntry {
   int ff = 0;                             // 0 none, 1 rumble, 2 constant
   std::vector<std::uint32_t> tools;
   std::uint64_t ff_uploads = 0;
+  std::string bus;                        // "usb", "bluetooth", "virtual", ... ("" unknown)
+  double gain = 1.0, limit = 1.0;         // force-feedback tuning, 0..1 of full
+};
+
+// What tune_haptics asks: each value set is 0..1 (the daemon checks).
+struct HapticsTune {
+  std::optional<double> gain, limit;
+};
+
+struct HapticsTuneOutcome {
+  std::string error;                      // "" on success, else why not
+  double gain = 1.0, limit = 1.0;         // the slot's tuning now
 };
 
 // One stroke of the history (proto::HistoryEntry): one tool's contact with a
@@ -122,6 +135,8 @@ class DaemonControl {
   // server asks at most ServerOptions::max_exports at a time (open readers
   // included).
   virtual kj::Promise<ExportOutcome> export_sculpt() = 0;
+  // A device slot's force-feedback gain and limit (run-time, not saved).
+  virtual HapticsTuneOutcome tune_haptics(std::uint32_t slot, const HapticsTune& tune) = 0;
 };
 
 }  // namespace sculpt::server

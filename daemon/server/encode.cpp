@@ -221,6 +221,9 @@ void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const Devic
     auto tools = o.initTools(static_cast<unsigned>(d.tools.size()));
     for (unsigned t = 0; t < tools.size(); ++t) tools.set(t, d.tools[t]);
     o.setFfUploads(d.ff_uploads);
+    o.setBus(d.bus);
+    o.setGain(static_cast<float>(d.gain));
+    o.setLimit(static_cast<float>(d.limit));
   }
 }
 

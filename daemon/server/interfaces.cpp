@@ -118,6 +118,19 @@ class SessionImpl final : public proto::Session::Server {
         })
         .attach(kj::mv(release));
   }
+  kj::Promise<void> tuneHaptics(TuneHapticsContext context) override {
+    return answer([&] {
+      const auto p = context.getParams();
+      HapticsTune tune;
+      if (p.getSetGain()) tune.gain = p.getGain();
+      if (p.getSetLimit()) tune.limit = p.getLimit();
+      const HapticsTuneOutcome out = server_.control().tune_haptics(p.getSlot(), tune);
+      auto r = context.getResults();
+      fill(r.initResult(), out.error);
+      r.setGain(static_cast<float>(out.gain));
+      r.setLimit(static_cast<float>(out.limit));
+    });
+  }
 
  private:
   // A call answered at once, unless the client is being closed.

@@ -44,6 +44,11 @@ class FakeControl final : public server::DaemonControl {
   bool paused_now() override { return paused; }
   kj::Promise<server::EditOutcome> undo(std::uint32_t count) override { return edit(count); }
   kj::Promise<server::EditOutcome> redo(std::uint32_t count) override { return edit(count); }
+  server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune&) override {
+    server::HapticsTuneOutcome out;
+    if (slot != 0) out.error = "no device on slot " + std::to_string(slot);
+    return out;
+  }
   server::History history() override {
     server::History h;
     h.budget_bytes = 1 << 20;

@@ -97,4 +97,13 @@ struct ExportArgs {
 };
 void export_sculpt(const ExportArgs& args);
 
+// `haptics SLOT [--gain G] [--limit L]` (haptics.cpp): a device's
+// force-feedback tuning, each 0..1 of full.
+struct HapticsArgs {
+  DaemonArgs daemon;
+  std::uint32_t slot = 0;
+  std::optional<double> gain, limit;
+};
+void haptics(const HapticsArgs& args);
+
 }  // namespace sculpt::ctl

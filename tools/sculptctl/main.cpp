@@ -29,6 +29,7 @@ struct Args {
   EditArgs undo, redo;
   DaemonArgs history;
   ExportArgs exported;
+  HapticsArgs haptics;
 };
 
 void add_commands(CLI::App& app, Args& a) {
@@ -105,6 +106,13 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->add_flag("--force", a.exported.force, "replace FILE if it exists");
   add_daemon_options(*cmd, a.exported.daemon);
   cmd->callback([&a] { export_sculpt(a.exported); });
+
+  cmd = app.add_subcommand("haptics", "a device's force-feedback gain and hard limit, until the daemon restarts");
+  cmd->add_option("SLOT", a.haptics.slot, "the device's slot (sculptctl devices)")->required();
+  cmd->add_option("--gain", a.haptics.gain, "0..1: scales every level the device gets");
+  cmd->add_option("--limit", a.haptics.limit, "0..1 of full: never exceeded, kicks included");
+  add_daemon_options(*cmd, a.haptics.daemon);
+  cmd->callback([&a] { haptics(a.haptics); });
 
   struct Simple {
     const char* name;

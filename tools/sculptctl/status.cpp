@@ -70,7 +70,8 @@ void devices(const DaemonArgs& args) {
                        {"vendor", fmt::format("{:04x}", d.getVendor())},
                        {"product", fmt::format("{:04x}", d.getProduct())}, {"kind", d.getKind().cStr()},
                        {"connected", d.getConnected()}, {"ff", ff_name(d.getFf())},
-                       {"ff_uploads", d.getFfUploads()}, {"tools", tools}});
+                       {"ff_uploads", d.getFfUploads()}, {"tools", tools}, {"bus", d.getBus().cStr()},
+                       {"gain", d.getGain()}, {"limit", d.getLimit()}});
       }
       std::cout << out.dump(2) << "\n";
       return;
@@ -82,10 +83,11 @@ void devices(const DaemonArgs& args) {
     for (const auto d : list) {
       std::string tools;
       for (const auto t : d.getTools()) tools += (tools.empty() ? "" : ",") + std::to_string(t);
-      fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} ff {:<8} {:>6} uploads  tools {}  {}\n", d.getSlot(),
-                 d.getConnected() ? (d.getNode().size() ? d.getNode().cStr() : "(recorded)") : "(unplugged)",
-                 d.getVendor(), d.getProduct(), d.getKind().cStr(), ff_name(d.getFf()), d.getFfUploads(),
-                 tools.empty() ? "-" : tools, d.getName().cStr());
+      fmt::print("slot {}  {:<12} {:04x}:{:04x} {:<9} {:<9} ff {:<8} gain {:.2f} limit {:.2f} {:>6} uploads  tools {}  {}\n",
+                 d.getSlot(), d.getConnected() ? (d.getNode().size() ? d.getNode().cStr() : "(recorded)") : "(unplugged)",
+                 d.getVendor(), d.getProduct(), d.getKind().cStr(), d.getBus().size() ? d.getBus().cStr() : "-",
+                 ff_name(d.getFf()), d.getGain(), d.getLimit(), d.getFfUploads(), tools.empty() ? "-" : tools,
+                 d.getName().cStr());
     }
   });
 }

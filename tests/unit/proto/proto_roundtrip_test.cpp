@@ -19,18 +19,19 @@ TEST(Proto, VersionConstants) {
   EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 0);
 }
 
-TEST(Proto, MethodsKeepTheirOrdinalsAndMinorFiveAppendsItsOwn) {
+TEST(Proto, MethodsKeepTheirOrdinalsAndEachMinorAppendsItsOwn) {
   // A method's ordinal is what goes on the wire: an old client's call must
   // still reach the same method.
   const auto session = capnp::Schema::from<sculpt::proto::Session>();
   const char* methods[] = {"status", "devices", "snapshot", "subscribe", "loadScene", "reset",
-                           "pause",  "resume",  "undo",     "redo",      "history",   "exportSculpt"};
+                           "pause",  "resume",  "undo",     "redo",      "history",   "exportSculpt",
+                           "tuneHaptics"};
   ASSERT_EQ(session.getMethods().size(), std::size(methods));
   for (unsigned i = 0; i < std::size(methods); ++i)
     EXPECT_EQ(session.getMethodByName(methods[i]).getOrdinal(), i) << methods[i];
   EXPECT_EQ(capnp::Schema::from<sculpt::proto::ExportReader>().getMethodByName("read").getOrdinal(), 0u);
   EXPECT_EQ(capnp::Schema::from<sculpt::proto::Sculptd>().getMethodByName("hello").getOrdinal(), 0u);
-  EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 5) << "undo, redo, history and exportSculpt came with minor 5";
+  EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 6) << "tuneHaptics came with minor 6";
 }
 
 TEST(Proto, DeltaFrameRoundTrip) {

@@ -71,6 +71,26 @@ class FakeControl final : public server::DaemonControl {
     return edit(count);
   }
   server::History history() override { return history_now; }
+  // Slot 0 exists; values are checked as the daemon does.
+  server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) override {
+    server::HapticsTuneOutcome out;
+    if (slot != 0) {
+      out.error = "no device on slot " + std::to_string(slot);
+      return out;
+    }
+    for (const auto& [name, v] : {std::pair{"gain", tune.gain}, std::pair{"limit", tune.limit}})
+      if (v && !(*v >= 0 && *v <= 1)) out.error = std::string(name) + ": must be within [0, 1]";
+    if (out.error.empty()) {
+      if (tune.gain) tuning.gain = *tune.gain;
+      if (tune.limit) tuning.limit = *tune.limit;
+    }
+    out.gain = tuning.gain;
+    out.limit = tuning.limit;
+    return out;
+  }
+  struct {
+    double gain = 1.0, limit = 1.0;
+  } tuning;
   kj::Promise<server::ExportOutcome> export_sculpt() override {
     ++exports_asked;
     if (!hold_exports) return make_export();

@@ -104,6 +104,39 @@ TEST(Sculptctl, BadCountsAreUsageErrors) {
   }
 }
 
+TEST(Sculptctl, HapticsSetsOnlyWhatIsGivenAndPrintsBoth) {
+  TempDir dir;
+  FakeDaemon d((dir.path / "s.sock").string());
+  auto r = ctl(d, {"haptics", "0", "--gain", "0.5"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "slot 0: gain 0.5, limit 1\n");
+  r = ctl(d, {"haptics", "0", "--limit", "0.25", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["ok"], true);
+  EXPECT_EQ(j["gain"], 0.5);
+  EXPECT_EQ(j["limit"], 0.25);
+  r = ctl(d, {"haptics", "0"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "slot 0: gain 0.5, limit 0.25\n");
+}
+
+TEST(Sculptctl, HapticsRefusalsAreNamed) {
+  TempDir dir;
+  FakeDaemon d((dir.path / "s.sock").string());
+  auto r = ctl(d, {"haptics", "7", "--gain", "0.5"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_TRUE(has(r.err, "sculptctl: error: haptics: no device on slot 7")) << r.err;
+  r = ctl(d, {"haptics", "0", "--gain", "1.5"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_TRUE(has(r.err, "gain")) << r.err;
+  r = ctl(d, {"haptics", "0", "--limit", "nan"});
+  EXPECT_NE(r.status, 0);
+  EXPECT_TRUE(has(r.err, "limit")) << r.err;
+  r = ctl(d, {"haptics"});
+  EXPECT_EQ(r.status, 2) << r.err;
+}
+
 TEST(Sculptctl, HistoryIsATableOfStrokesAndTheBudget) {
   TempDir dir;
   FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });

@@ -1,9 +1,12 @@
-// The server's undo, redo, history and export (protocol 1.5) against a fake
+// The server's undo, redo, history and export (protocol 1.5) and haptics
+// tuning (1.6) against a fake
 // daemon (fake_control.hpp), spoken to through in-memory pipes exactly as a
 // client on the socket would: what reaches the daemon, what comes back, the
 // limits (counts, calls in flight, exports open per connection and in all,
 // idle readers) and that every export file is closed once nobody can read it.
 #include <cstring>
+#include <limits>
+#include <optional>
 #include <memory>
 #include <string>
 
@@ -101,11 +104,11 @@ std::string read_chunk(proto::ExportReader::Client& reader, Harness& h, std::uin
   return std::string(reinterpret_cast<const char*>(d.begin()), d.size());
 }
 
-TEST(Session, TheHelloSaysProtocolMinorFiveWithHistoryAndExport) {
+TEST(Session, TheHelloSaysTheMinorTheServerSpeaks) {
   Harness h;
   Client c(h);
   EXPECT_EQ(c.minor, proto::PROTOCOL_MINOR);
-  EXPECT_GE(proto::PROTOCOL_MINOR, 5);
+  EXPECT_GE(proto::PROTOCOL_MINOR, 6);
 }
 
 TEST(Undo, TheCountReachesTheDaemonAndItsOutcomeComesBack) {
@@ -206,6 +209,49 @@ TEST(Undo, CallsBeingAppliedAreBoundedPerConnection) {
   for (std::size_t i = 1; i < held.size(); ++i) EXPECT_TRUE(edit_of(held[i].wait(h.io.waitScope)).ok);
   EXPECT_TRUE(edit_of(other_reply.wait(h.io.waitScope)).ok);
   EXPECT_TRUE(edit_of(again_reply.wait(h.io.waitScope)).ok);
+}
+
+struct Tuned {
+  bool ok;
+  std::string error;
+  float gain, limit;
+};
+
+Tuned tune(Client& c, Harness& h, std::uint32_t slot, std::optional<float> gain, std::optional<float> limit) {
+  auto req = c.session.tuneHapticsRequest();
+  req.setSlot(slot);
+  req.setSetGain(gain.has_value());
+  req.setGain(gain.value_or(0));
+  req.setSetLimit(limit.has_value());
+  req.setLimit(limit.value_or(0));
+  auto r = req.send().wait(h.io.waitScope);
+  return {r.getResult().getOk(), r.getResult().getError().cStr(), r.getGain(), r.getLimit()};
+}
+
+TEST(TuneHaptics, OnlyWhatIsSetChangesAndTheReplyHasBoth) {
+  Harness h;
+  Client c(h);
+  Tuned t = tune(c, h, 0, 0.5f, std::nullopt);
+  EXPECT_TRUE(t.ok) << t.error;
+  EXPECT_FLOAT_EQ(t.gain, 0.5f);
+  EXPECT_FLOAT_EQ(t.limit, 1.0f);
+  t = tune(c, h, 0, std::nullopt, 0.25f);
+  EXPECT_TRUE(t.ok) << t.error;
+  EXPECT_FLOAT_EQ(t.gain, 0.5f);
+  EXPECT_FLOAT_EQ(t.limit, 0.25f);
+}
+
+TEST(TuneHaptics, TheDaemonsRefusalIsTheResultsErrorAndNothingChanges) {
+  Harness h;
+  Client c(h);
+  Tuned t = tune(c, h, 3, 0.5f, std::nullopt);
+  EXPECT_FALSE(t.ok);
+  EXPECT_TRUE(has(t.error, "slot 3")) << t.error;
+  t = tune(c, h, 0, std::numeric_limits<float>::quiet_NaN(), std::nullopt);
+  EXPECT_FALSE(t.ok);
+  EXPECT_TRUE(has(t.error, "gain")) << t.error;
+  EXPECT_FLOAT_EQ(t.gain, 1.0f);
+  EXPECT_EQ(h.control.tuning.gain, 1.0);
 }
 
 TEST(History, EveryFieldOldestFirstWithTheBudget) {
