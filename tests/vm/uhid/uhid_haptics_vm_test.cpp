@@ -149,16 +149,19 @@ TEST_P(UhidHaptics, SteadyForceRumblesAndALargerForceRumblesHarder) {
 }
 
 // Needs the continuous-rumble engine.
-TEST_P(UhidHaptics, NoContactOrZeroForceMeansMotorsZero) {
+TEST_P(UhidHaptics, NoContactMeansMotorsZeroAndTheLightestTouchIsFelt) {
   Rig rig(*GetParam());
   rig.sim.set(touching(0.6));
-  ASSERT_TRUE(steady_motors(rig.pad, 3000ms).has_value());
+  const auto pressed = steady_motors(rig.pad, 3000ms);
+  ASSERT_TRUE(pressed.has_value());
   rig.sim.set(free_air());
   EXPECT_TRUE(rig.pad.wait_for_motors([](const Motors& m) { return m == Motors{0, 0}; }, 1000ms));
   rig.sim.set(touching(0.6));
   ASSERT_TRUE(rig.pad.wait_for_motors([](const Motors& m) { return level(m) > 0; }, 3000ms));
-  rig.sim.set(touching(0.0));  // touching, but no force: nothing to feel
-  EXPECT_TRUE(rig.pad.wait_for_motors([](const Motors& m) { return m == Motors{0, 0}; }, 1000ms));
+  // Touching, however lightly: the felt minimum, below a press's level.
+  rig.sim.set(touching(0.0));
+  EXPECT_TRUE(rig.pad.wait_for_motors(
+      [&](const Motors& m) { return level(m) > 0 && level(m) < level(*pressed); }, 1000ms));
 }
 
 // Needs the engine's per-bus pacing.
