@@ -16,6 +16,7 @@
 #include "haptics/haptics_thread.hpp"
 #include "haptics/hidraw_port.hpp"
 #include "support/uhid_pad.hpp"
+#include "uhid/uhid_test_util.hpp"
 
 namespace sculpt::haptics {
 namespace {
@@ -23,6 +24,10 @@ namespace {
 using namespace std::chrono_literals;
 using support::OutputReport;
 using support::UhidPad;
+using support::uhidtest::BoardPublisher;
+using support::uhidtest::free_air;
+using support::uhidtest::scaled;
+using support::uhidtest::touching;
 
 // The common part starts at byte 1 of the USB report.
 constexpr std::size_t kFlag0 = 1;
@@ -42,43 +47,6 @@ std::vector<OutputReport> trigger_reports(const std::vector<OutputReport>& all) 
     if (is_trigger_report(r)) out.push_back(r);
   return out;
 }
-
-std::chrono::milliseconds scaled(std::chrono::milliseconds t) {
-  return std::chrono::milliseconds(static_cast<long long>(static_cast<double>(t.count()) * support::vm_slowdown()));
-}
-
-// The sim thread's part: publishes tool 0's felt force and beats about once
-// a millisecond until destroyed.
-class SimPublisher {
- public:
-  explicit SimPublisher(FeedbackBoard& board) : board_(board) {
-    thread_ = std::thread([this] {
-      while (!stop_.load()) {
-        const double n = newton_.load();
-        Felt f;
-        f.force = {0, 0, n};
-        f.touching = n != 0;
-        f.contacts = n != 0 ? 3 : 0;
-        board_.publish(0, f);
-        if (beating_.load()) board_.beat();
-        std::this_thread::sleep_for(1ms);
-      }
-    });
-  }
-  ~SimPublisher() {
-    stop_ = true;
-    thread_.join();
-  }
-  void set(double newton) { newton_ = newton; }
-  void set_beating(bool b) { beating_ = b; }
-
- private:
-  FeedbackBoard& board_;
-  std::atomic<double> newton_{0};
-  std::atomic<bool> beating_{true};
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 class DualSenseTriggers : public ::testing::Test {
  protected:
@@ -117,7 +85,7 @@ TEST_F(DualSenseTriggers, TheHidrawNodeIsFoundThroughSysfs) {
 }
 
 TEST_F(DualSenseTriggers, ForceOnTheRightTriggersToolThenZeroThenStop) {
-  SimPublisher sim(board);
+  BoardPublisher sim(board);
   HapticsThread thread(board, settings);
   thread.start();
   thread.attach(0, pad.ff_node(), {}, TriggerBinding{-1, 0});
@@ -127,7 +95,7 @@ TEST_F(DualSenseTriggers, ForceOnTheRightTriggersToolThenZeroThenStop) {
   // Not touching: the first report is neutral.
   ASSERT_TRUE(wait_last_trigger(both_neutral, scaled(5000ms)));
 
-  sim.set(0.5);  // round(0.5 · 255) = 128
+  sim.set(touching(0.5));  // round(0.5 · 255) = 128
   ASSERT_TRUE(wait_last_trigger([](const OutputReport& r) { return right_force_is(r, 128); }, scaled(5000ms)));
   {
     const auto reports = trigger_reports(pad.outputs());
@@ -138,13 +106,13 @@ TEST_F(DualSenseTriggers, ForceOnTheRightTriggersToolThenZeroThenStop) {
     EXPECT_EQ(r.data[kLeftMode], dualsense::kModeOff) << "the left trigger drives no tool";
   }
 
-  sim.set(1.5);  // beyond full scale: 255
+  sim.set(touching(1.5));  // beyond full scale: 255
   ASSERT_TRUE(wait_last_trigger([](const OutputReport& r) { return right_force_is(r, 255); }, scaled(5000ms)));
 
-  sim.set(0);
+  sim.set(free_air());
   ASSERT_TRUE(wait_last_trigger(both_neutral, scaled(5000ms)));
 
-  sim.set(0.5);
+  sim.set(touching(0.5));
   ASSERT_TRUE(wait_last_trigger([](const OutputReport& r) { return right_force_is(r, 128); }, scaled(5000ms)));
   const std::size_t before_stop = trigger_reports(pad.outputs()).size();
   thread.stop();
@@ -154,11 +122,11 @@ TEST_F(DualSenseTriggers, ForceOnTheRightTriggersToolThenZeroThenStop) {
 }
 
 TEST_F(DualSenseTriggers, ASimStallOrAHoldIsNeutral) {
-  SimPublisher sim(board);
+  BoardPublisher sim(board);
   HapticsThread thread(board, settings);
   thread.start();
   thread.attach(0, pad.ff_node(), {}, TriggerBinding{-1, 0});
-  sim.set(0.5);
+  sim.set(touching(0.5));
   ASSERT_TRUE(wait_last_trigger([](const OutputReport& r) { return right_force_is(r, 128); }, scaled(5000ms)));
   board.set_hold(Hold::paused);
   ASSERT_TRUE(wait_last_trigger(both_neutral, scaled(2000ms)));
@@ -172,7 +140,7 @@ TEST_F(DualSenseTriggers, ASimStallOrAHoldIsNeutral) {
 }
 
 TEST_F(DualSenseTriggers, WritesArePacedOnUsb) {
-  SimPublisher sim(board);
+  BoardPublisher sim(board);
   HapticsThread thread(board, settings);
   thread.start();
   thread.attach(0, pad.ff_node(), {}, TriggerBinding{-1, 0});
@@ -181,7 +149,7 @@ TEST_F(DualSenseTriggers, WritesArePacedOnUsb) {
   // A force that changes every millisecond for 400 ms.
   const auto t0 = std::chrono::steady_clock::now();
   for (int i = 0; i < 400; ++i) {
-    sim.set(0.1 + 0.8 * std::abs(std::sin(i * 0.05)));
+    sim.set(touching(0.1 + 0.8 * std::abs(std::sin(i * 0.05))));
     std::this_thread::sleep_for(1ms);
   }
   const double elapsed_ms =

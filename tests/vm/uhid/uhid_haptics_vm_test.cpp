@@ -36,60 +36,12 @@ using support::OutputReport;
 using support::UhidPad;
 using support::UhidPadSpec;
 using Clock = std::chrono::steady_clock;
+using support::uhidtest::BoardPublisher;
+using support::uhidtest::free_air;
+using support::uhidtest::scaled;
+using support::uhidtest::touching;
 
 const StickPlane kPlane{0, 2, 1.0, 1.0};
-
-Felt touching(double newton) {
-  Felt f;
-  f.force = {newton, 0, 0};
-  f.contacts = 4;
-  f.touching = true;
-  return f;
-}
-Felt free_air() { return Felt{}; }
-
-std::chrono::milliseconds scaled(std::chrono::milliseconds t) {
-  return std::chrono::milliseconds(static_cast<long long>(static_cast<double>(t.count()) * support::vm_slowdown()));
-}
-
-// The sim thread's part: publishes the current Felt and beats, about once a
-// millisecond, until destroyed. The first publish marks a contact onset.
-class SimPublisher {
- public:
-  explicit SimPublisher(FeedbackBoard& board) : board_(board) {
-    thread_ = std::thread([this] {
-      bool was_touching = false;
-      while (!stop_.load()) {
-        Felt f;
-        {
-          std::lock_guard lock(mutex_);
-          f = felt_;
-        }
-        f.onset = f.touching && !was_touching;
-        if (f.onset) f.onset_impulse = 0.001;
-        was_touching = f.touching;
-        board_.publish(0, f);
-        board_.beat();
-        std::this_thread::sleep_for(1ms);  // the sim's own pace
-      }
-    });
-  }
-  ~SimPublisher() {
-    stop_.store(true);
-    thread_.join();
-  }
-  void set(const Felt& f) {
-    std::lock_guard lock(mutex_);
-    felt_ = f;
-  }
-
- private:
-  FeedbackBoard& board_;
-  std::mutex mutex_;
-  Felt felt_{};
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
 
 struct Rig {
   explicit Rig(const UhidPadSpec& spec) : pad(spec), board(1), haptics(board, HapticsSettings{}), sim(board) {
@@ -100,7 +52,7 @@ struct Rig {
   UhidPad pad;
   FeedbackBoard board;
   HapticsThread haptics;
-  SimPublisher sim;
+  BoardPublisher sim;
 };
 
 // How hard the pad is told to rumble: its larger motor byte (which motor

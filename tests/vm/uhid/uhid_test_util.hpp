@@ -1,11 +1,16 @@
-// Shared by the uhid VM tests: the pads as gtest parameters, and the motor
-// bytes each driver makes of an FF_RUMBLE magnitude.
+// Shared by the uhid VM tests: the pads as gtest parameters, the motor bytes
+// each driver makes of an FF_RUMBLE magnitude, and a stand-in sim thread.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 
+#include "haptics/feedback_board.hpp"
 #include "support/uhid_pad.hpp"
 
 namespace sculpt::support::uhidtest {
@@ -26,6 +31,66 @@ struct PadName {
     std::replace(n.begin(), n.end(), '-', '_');
     return n;
   }
+};
+
+// A deadline stretched by the runner's slowdown (sanitized builds).
+inline std::chrono::milliseconds scaled(std::chrono::milliseconds t) {
+  return std::chrono::milliseconds(static_cast<long long>(static_cast<double>(t.count()) * vm_slowdown()));
+}
+
+// Tool 0 pressing with `newton` along x, or not touching at all.
+inline haptics::Felt touching(double newton) {
+  haptics::Felt f;
+  f.force = {newton, 0, 0};
+  f.contacts = 4;
+  f.touching = true;
+  return f;
+}
+inline haptics::Felt free_air() { return haptics::Felt{}; }
+
+// The sim thread's part: publishes tool 0's Felt and beats, about once a
+// millisecond, until destroyed. A publish that starts touching marks an
+// onset; with beating off the beat stops as a stalled sim thread's would.
+class BoardPublisher {
+ public:
+  explicit BoardPublisher(haptics::FeedbackBoard& board) : board_(board) {
+    thread_ = std::thread([this] {
+      bool was_touching = false;
+      while (!stop_.load()) {
+        haptics::Felt f;
+        {
+          std::lock_guard lock(mutex_);
+          f = felt_;
+        }
+        f.onset = f.touching && !was_touching;
+        if (f.onset) f.onset_impulse = 0.001;
+        was_touching = f.touching;
+        board_.publish(0, f);
+        if (beating_.load()) board_.beat();
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));  // the sim's own pace
+      }
+    });
+  }
+  ~BoardPublisher() {
+    stop_.store(true);
+    thread_.join();
+  }
+  BoardPublisher(const BoardPublisher&) = delete;
+  BoardPublisher& operator=(const BoardPublisher&) = delete;
+
+  void set(const haptics::Felt& f) {
+    std::lock_guard lock(mutex_);
+    felt_ = f;
+  }
+  void set_beating(bool b) { beating_.store(b); }
+
+ private:
+  haptics::FeedbackBoard& board_;
+  std::mutex mutex_;
+  haptics::Felt felt_{};
+  std::atomic<bool> beating_{true};
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
 };
 
 }  // namespace sculpt::support::uhidtest
