@@ -50,6 +50,19 @@ haptics::TriggerBinding trigger_binding(const input::DeviceBinding& b) {
   return out;
 }
 
+// linux/input.h's bus types, as `sculptctl devices` shows them.
+std::string bus_name(std::uint16_t bustype) {
+  switch (bustype) {
+    case 0: return "";
+    case BUS_USB: return "usb";
+    case BUS_BLUETOOTH: return "bluetooth";
+    case BUS_VIRTUAL: return "virtual";
+    case BUS_I2C: return "i2c";
+    case BUS_HOST: return "host";
+    default: return fmt::format("bus 0x{:02x}", bustype);
+  }
+}
+
 }  // namespace
 
 DeviceHub::DeviceHub(bool device_clock, double input_delay_ms, std::function<std::uint64_t()> current_tick)
@@ -93,21 +106,6 @@ void DeviceHub::carry_over(SculptStages& old, const std::vector<input::DeviceInf
         push(input::InputMessage::attach(slot, bind(slot, (*recorded)[slot])), "attach");
   while (auto m = old.ring().try_pop()) push(*m, "queued");
 }
-
-namespace {
-// linux/input.h's bus types, as `sculptctl devices` shows them.
-std::string bus_name(std::uint16_t bustype) {
-  switch (bustype) {
-    case 0: return "";
-    case BUS_USB: return "usb";
-    case BUS_BLUETOOTH: return "bluetooth";
-    case BUS_VIRTUAL: return "virtual";
-    case BUS_I2C: return "i2c";
-    case BUS_HOST: return "host";
-    default: return fmt::format("bus 0x{:02x}", bustype);
-  }
-}
-}  // namespace
 
 std::vector<server::DeviceEntry> DeviceHub::entries() const {
   std::vector<server::DeviceEntry> out;

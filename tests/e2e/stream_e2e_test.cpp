@@ -401,6 +401,23 @@ TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
   EXPECT_EQ(nlohmann::json::parse(r.out).size(), 1u);
   EXPECT_TRUE(nlohmann::json::parse(r.out)[0].contains("ff_uploads")) << r.out;
 
+  // A slot's force-feedback tuning, through the daemon's own checks.
+  r = with({"haptics", "0", "--gain", "0.5"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.out, "slot 0: gain 0.5, limit 1\n");
+  r = with({"haptics", "0", "--limit", "0.25"});
+  EXPECT_EQ(r.out, "slot 0: gain 0.5, limit 0.25\n") << r.err;
+  r = with({"devices", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(r.out)[0]["gain"].get<double>(), 0.5) << r.out;
+  EXPECT_DOUBLE_EQ(nlohmann::json::parse(r.out)[0]["limit"].get<double>(), 0.25) << r.out;
+  r = with({"haptics", "0", "--gain", "nan"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("gain"), std::string::npos) << r.err;
+  r = with({"haptics", "9", "--gain", "0.5"});
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("no device on slot 9"), std::string::npos) << r.err;
+
   r = with({"pause"});
   EXPECT_EQ(r.status, 0) << r.err;
   r = with({"status", "--json"});
