@@ -1,12 +1,11 @@
 #include "main/scene_bundle.hpp"
 
-#include <stdlib.h>
-
 #include <fstream>
 #include <map>
 #include <stdexcept>
 
 #include "files/regular_file.hpp"
+#include "files/temp_dir.hpp"
 #include "sim/state_bytes.hpp"
 
 namespace sculpt::daemon {
@@ -29,24 +28,6 @@ std::string get_text(sim::StateReader& r, const char* what) {
   r.raw(s.data(), n, what);
   return s;
 }
-
-// A private directory that goes away with its files.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "sculptd-scene-XXXXXX").string();
-    if (!mkdtemp(pattern.data())) throw std::runtime_error("cannot make a temporary directory for the scene's meshes");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 }  // namespace
 
@@ -126,7 +107,7 @@ SceneBundle read_bundle(const fs::path& scene_file, const SimulationSettings& se
 }
 
 scene::Scene load_bundle(const SceneBundle& b) {
-  TempDir dir;
+  files::TempDir dir("sculptd-scene");
   std::map<std::string, fs::path> located;
   for (std::size_t i = 0; i < b.meshes.size(); ++i) {
     // The importer picks the format by the extension: keep it.

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "files/temp_dir.hpp"
 #include "store/store.hpp"
 
 namespace sculpt::store::testing {
@@ -22,21 +23,8 @@ namespace sculpt::store::testing {
 namespace fs = std::filesystem;
 
 // A fresh directory below TMPDIR (or `base`), removed at the end of the test.
-class TempDir {
- public:
-  explicit TempDir(const fs::path& base = fs::temp_directory_path()) {
-    std::string tmpl = (base / "sculpt-store-XXXXXX").string();
-    if (!::mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
-    path_ = tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+struct TempDir : files::TempDir {
+  explicit TempDir(const fs::path& base = fs::temp_directory_path()) : files::TempDir("sculpt-store", base) {}
 };
 
 // `n` bytes from a seeded generator: incompressible, reproducible.
