@@ -3,7 +3,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "loop/stats_json.hpp"
+#include "loop/stats.hpp"
 #include "main/scene_bundle.hpp"
 
 namespace sculpt::daemon {

@@ -2,6 +2,9 @@
 
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "loop/stats_json.hpp"
 #include "main/log.hpp"
 #include "scene/atomic_file.hpp"
 

@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "loop/stats_json.hpp"
+#include "loop/stats.hpp"
 #include "main/config.hpp"
 
 namespace sculpt::daemon {

@@ -9,7 +9,7 @@
 
 #include <kj/async.h>
 
-#include "loop/stats_json.hpp"
+#include "loop/stats.hpp"
 
 namespace sculpt::server {
 

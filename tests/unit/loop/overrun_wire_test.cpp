@@ -5,6 +5,8 @@
 
 #include <capnp/message.h>
 
+#include <nlohmann/json.hpp>
+
 #include "loop/stats_json.hpp"
 #include "server/encode.hpp"
 

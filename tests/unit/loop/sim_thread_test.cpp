@@ -8,6 +8,8 @@
 #include <thread>
 
 #include "loop/sim_thread.hpp"
+#include <nlohmann/json.hpp>
+
 #include "loop/stats_json.hpp"
 #include "loop/tool_driver.hpp"
 #include "sim/shapes.hpp"

@@ -16,6 +16,8 @@
 
 #include "haptics/feedback_board.hpp"
 #include "loop/sim_thread.hpp"
+#include <nlohmann/json.hpp>
+
 #include "loop/stats_json.hpp"
 #include "main/pipeline.hpp"
 #include "server/encode.hpp"
