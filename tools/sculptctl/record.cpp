@@ -14,6 +14,7 @@
 
 #include "cli/conventions.hpp"
 #include "commands.hpp"
+#include "stop_signal.hpp"
 #include "input/device_manager.hpp"
 #include "input/evdev_device.hpp"
 #include "input/session.hpp"
@@ -21,8 +22,6 @@
 namespace sculpt::ctl {
 namespace {
 
-std::atomic<bool> g_stop{false};
-void on_stop_signal(int) { g_stop.store(true); }
 
 
 // Collects frames in memory: the header (written first) lists every device
@@ -84,10 +83,7 @@ void poll_once(input::DeviceManager& manager, int timeout_ms) {
 }  // namespace
 
 void record(const RecordArgs& args) {
-  struct sigaction sa {};
-  sa.sa_handler = on_stop_signal;
-  ::sigaction(SIGINT, &sa, nullptr);
-  ::sigaction(SIGTERM, &sa, nullptr);
+  catch_stop_signals();
 
   Recorder recorder(args.verbose);
   input::DeviceManagerOptions opts;
@@ -104,7 +100,7 @@ void record(const RecordArgs& args) {
   }
   using Clock = std::chrono::steady_clock;
   const auto wait_end = Clock::now() + std::chrono::duration<double>(args.wait_for ? args.wait_timeout : 0);
-  while (!g_stop && manager.attached() < args.wait_for && Clock::now() < wait_end) poll_once(manager, 20);
+  while (!stop_requested() && manager.attached() < args.wait_for && Clock::now() < wait_end) poll_once(manager, 20);
   if (manager.attached() < std::max<std::size_t>(args.wait_for, 1)) {
     cli::error(fmt::format("record: {} joystick(s) found{}; nothing to record{}", manager.attached(),
                args.wait_for ? fmt::format(" within {} s, {} wanted", args.wait_timeout, args.wait_for) : "",
@@ -116,7 +112,7 @@ void record(const RecordArgs& args) {
   fmt::print("recording {} device(s) to {}\n", manager.attached(), args.file);
   std::fflush(stdout);
   const auto end = Clock::now() + std::chrono::duration<double>(args.duration);
-  while (!g_stop && (args.duration <= 0 || Clock::now() < end)) poll_once(manager, 10);
+  while (!stop_requested() && (args.duration <= 0 || Clock::now() < end)) poll_once(manager, 10);
   // What is already queued belongs to the recording too.
   for (int fd : manager.fds()) manager.dispatch(fd);
 

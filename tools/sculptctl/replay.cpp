@@ -20,14 +20,13 @@
 
 #include "cli/conventions.hpp"
 #include "commands.hpp"
+#include "stop_signal.hpp"
 #include "input/session.hpp"
 #include "uinput/virtual_device.hpp"
 
 namespace sculpt::ctl {
 namespace {
 
-std::atomic<bool> g_stop{false};
-void on_stop_signal(int) { g_stop.store(true); }
 
 
 uinput::DeviceSpec spec_of(const input::DeviceInfo& d) {
@@ -66,9 +65,9 @@ timespec add_ns(timespec t, std::int64_t ns) {
 // Sleeps until `deadline`; false when a signal asked us to stop.
 bool sleep_until(const timespec& deadline) {
   for (;;) {
-    if (g_stop) return false;
+    if (stop_requested()) return false;
     const int rc = ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
-    if (rc == 0) return !g_stop;
+    if (rc == 0) return !stop_requested();
     if (rc != EINTR) return false;
   }
 }
@@ -76,10 +75,7 @@ bool sleep_until(const timespec& deadline) {
 }  // namespace
 
 void replay(const ReplayArgs& args) {
-  struct sigaction sa {};
-  sa.sa_handler = on_stop_signal;  // no SA_RESTART: a signal ends the sleep
-  ::sigaction(SIGINT, &sa, nullptr);
-  ::sigaction(SIGTERM, &sa, nullptr);
+  catch_stop_signals();
 
   std::unique_ptr<input::SessionReader> reader;
   try {
@@ -139,7 +135,7 @@ void replay(const ReplayArgs& args) {
     cli::error(fmt::format("replay: {}", e.what()));
     throw CommandFailed{kExitUsage};
   }
-  if (!g_stop) {
+  if (!stop_requested()) {
     timespec now{};
     ::clock_gettime(CLOCK_MONOTONIC, &now);
     sleep_until(add_ns(now, static_cast<std::int64_t>(args.hold * 1e9)));
@@ -148,7 +144,7 @@ void replay(const ReplayArgs& args) {
   for (const auto& d : devices) uploads += d->uploads_answered();
   if (!args.quiet)
     fmt::print("replayed {} frames on {} device(s){}; answered {} FF uploads\n", frames, devices.size(),
-               g_stop ? " (stopped by a signal)" : "", uploads);
+               stop_requested() ? " (stopped by a signal)" : "", uploads);
 }
 
 }  // namespace sculpt::ctl
