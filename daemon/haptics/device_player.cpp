@@ -4,24 +4,23 @@
 
 namespace sculpt::haptics {
 
-void DevicePlayer::set_timing(PlayerTiming timing) {
-  timing_ = timing;
-  pacer_.set_interval(timing.write_interval);
-}
-
 void DevicePlayer::kick(const RumbleCommand& k) {
   if (!k.any()) return;
   if (!kick_pending_ || k.strong > kick_pending_->strong) kick_pending_ = k;
 }
 
 void DevicePlayer::silence() {
+  want({}, {});
+  silenced_ = true;
   kick_pending_.reset();
   kick_play_pending_ = false;
   kick_until_.reset();
 }
 
 void DevicePlayer::restart() {
-  silence();
+  kick_pending_.reset();
+  kick_play_pending_ = false;
+  kick_until_.reset();
   gain_pending_.reset();
   started_until_.reset();
   main_mode_ = FfMode::none;
@@ -39,9 +38,13 @@ bool DevicePlayer::quiet(const FfDevice& ff) const {
   return !ff.holds(FfDevice::Effect::rumble) || !ff.current_rumble().any();
 }
 
+bool DevicePlayer::zero_waiting(const FfDevice& ff) const {
+  return silenced_ && !ff.gone() && ff.mode() != FfMode::none && !quiet(ff);
+}
+
 bool DevicePlayer::step(FfDevice& ff, Clock::time_point now) {
   const FfMode mode = ff.mode();
-  if (mode == FfMode::none || ff.gone() || !pacer_.ready(now)) return false;
+  if (mode == FfMode::none || ff.gone() || !ff.pacer().ready(now)) return false;
   if (mode != main_mode_) {  // first step, or the device refused constant force
     started_until_.reset();
     main_mode_ = mode;
@@ -54,29 +57,25 @@ bool DevicePlayer::step(FfDevice& ff, Clock::time_point now) {
   auto upload_main = [&](const RumbleCommand& r) {
     return constant ? ff.upload_constant(want_constant_, length) : ff.upload_rumble(r);
   };
-  auto done = [&] {
-    // "Not ready yet" reached no driver: retry at the next poll, unpaced.
-    if (ff.not_ready()) return true;
-    pacer_.wrote(now);
-    ++writes_;
-    return true;
-  };
-
   last_write_gain_ = false;
   if (!ff.holds(main)) {
     if (upload_main(rumble_target(now))) started_until_.reset();
-    return done();
+    return true;
+  }
+  if (zero_waiting(ff)) {  // the safety zero goes first
+    upload_main(rumble_target(now));
+    return true;
   }
   if (gain_pending_) {
     const std::uint16_t g = *std::exchange(gain_pending_, std::nullopt);
     if (ff.set_gain(g)) {
       last_write_gain_ = true;
-      return done();
+      return true;
     }
   }
   if (!main_playing(now)) {
     if (ff.play(main)) started_until_ = now + timing_.effect_length;
-    return done();
+    return true;
   }
   const bool changed = constant ? is_real_change(ff.current_constant(), want_constant_, timing_.change)
                                 : is_real_change(ff.current_rumble(), rumble_target(now), timing_.change);
@@ -86,7 +85,7 @@ bool DevicePlayer::step(FfDevice& ff, Clock::time_point now) {
     kick_play_pending_ = false;
     last_was_kick_ = true;
     if (ff.play(FfDevice::Effect::rumble)) ++kicks_;
-    return done();
+    return true;
   }
   if (kick_pending_ && !(last_was_kick_ && changed)) {
     last_was_kick_ = true;
@@ -100,23 +99,23 @@ bool DevicePlayer::step(FfDevice& ff, Clock::time_point now) {
         ++kicks_;
       }
       kick_pending_.reset();
-      return done();
+      return true;
     }
     if (ff.rumble_allowed()) {
       kick_play_pending_ = ff.upload_rumble(*kick_pending_);
       kick_pending_.reset();
-      return done();
+      return true;
     }
     kick_pending_.reset();  // no kicks on this device
   }
   last_was_kick_ = false;
   if (changed) {
     upload_main(rumble_target(now));
-    return done();
+    return true;
   }
   if (*started_until_ - now <= timing_.effect_length - timing_.rearm_every) {
     if (ff.play(main)) started_until_ = now + timing_.effect_length;
-    return done();
+    return true;
   }
   return false;
 }

@@ -1,21 +1,25 @@
-// One force-feedback device, RAII: the effects it holds are stopped and erased
-// when it is destroyed (or shut down), never leaked.
+// One force-feedback device, RAII: the effects it holds are erased when it is
+// destroyed (or shut down), never leaked.
 //
 // The upload state machine, per effect kind (constant, rumble):
 //   no id ──upload(id −1)──▶ id n ──upload(id n)──▶ id n ...   (update in place, never a new id)
-//   EINVAL on an update (the id vanished)  → forget it, next time upload with −1 again
+//   EINVAL on an update (the id vanished)  → forget it; the next call uploads with −1 again
 //   EINVAL on a new constant               → the device refuses constant force: rumble-only from now on
-//   ENOSPC on a new effect                 → no free id: a rumble gives its id up to the constant
+//   ENOSPC on a new constant               → no free id: the rumble (kick) gives its id up: the next
+//                                             upload_constant() erases it, the one after uploads
 //                                             (ff_effects_max = 1: the constant wins, or the rumble on
-//                                             rumble-only pads); a constant that still cannot get one
+//                                             rumble-only pads); with nothing to give up the upload
 //                                             fails (counted) and the caller retries it later
 //   ENODEV                                 → unplugged: stop issuing anything; forget() drops the ids
 //   ENODEV before anything succeeded, while wait_for_ready(true)
 //                                          → not ready yet (uinput between the node appearing and the
 //                                             device being created): not an error, not gone; retry
 //
-// Every call below is ONE write to the driver (an upload or a play), so that
-// the caller can pace them per transport.
+// Every public call makes at most ONE call to the driver (an upload, a play,
+// FF_GAIN or an erase) — shutdown() one per effect held — and every one of
+// them goes through the device's WritePacer: it waits until the pacer allows
+// a write, and stamps the pacer with the time the call returned. ENODEV
+// reached no driver and is not stamped.
 #pragma once
 
 #include <atomic>
@@ -25,6 +29,7 @@
 
 #include "haptics/effect_math.hpp"
 #include "haptics/ff_port.hpp"
+#include "haptics/pacer.hpp"
 
 namespace sculpt::haptics {
 
@@ -53,7 +58,10 @@ struct FfDeviceOptions {
 class FfDevice {
  public:
   // Reads the caps, decides the mode, sets FF_GAIN. counters may be null.
-  FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options, FfCounters* counters);
+  // `pacer`: the device's, shared with its other writers and kept across
+  // reopens (null: one of its own, interval 0: unpaced). `time` stamps it.
+  FfDevice(std::unique_ptr<FfPort> port, const FfDeviceOptions& options, FfCounters* counters,
+           std::shared_ptr<WritePacer> pacer = nullptr, TimeSource& time = steady_time());
   // Opens `node` (throws std::system_error naming it).
   static std::unique_ptr<FfDevice> open(const std::string& node, const FfDeviceOptions& options,
                                         FfCounters* counters);
@@ -90,7 +98,8 @@ class FfDevice {
   // it wrote.
   bool set_gain(std::uint16_t gain);
 
-  // Stops and erases every effect this device holds. Idempotent.
+  // Erases every effect this device holds (the kernel stops each one as it
+  // erases it): one paced write per effect, waiting for the pacer. Idempotent.
   void shutdown();
   // The device is gone: drop the ids without talking to it (the kernel freed them).
   void forget();
@@ -102,6 +111,10 @@ class FfDevice {
   int live_effects() const { return (constant_id_ >= 0) + (rumble_id_ >= 0); }
   // Successful uploads (new and in place) to this device since it was opened.
   std::uint64_t uploads() const { return uploads_; }
+  // Calls that reached the driver (uploads, plays, FF_GAIN, erases; failed
+  // ones too, ENODEV not), each stamped on the pacer.
+  std::uint64_t writes() const { return writes_; }
+  const WritePacer& pacer() const { return *pacer_; }
   // The constant the device has now (valid while constant_id() >= 0).
   const ConstantCommand& current_constant() const { return current_; }
   const RumbleCommand& current_rumble() const { return current_rumble_; }
@@ -110,12 +123,18 @@ class FfDevice {
   int upload(ff_effect& e, std::int16_t& id);  // the state machine step; 0 or errno
   bool usable() const { return !gone_ && !shut_; }
   bool erase(std::int16_t& id);
+  // The one way to the driver: waits for the pacer, makes the call, stamps
+  // the pacer when it returned. 0 or the errno.
+  template <class Call>
+  int paced(Call call);
   void count_error(int err);
   void add_live(int delta);
 
   std::unique_ptr<FfPort> port_;
   FfDeviceOptions options_;
   FfCounters* counters_;
+  std::shared_ptr<WritePacer> pacer_;
+  TimeSource* time_;
   FfCaps caps_;
   DeviceIdentity identity_;
   FfMode mode_ = FfMode::none;
@@ -123,7 +142,9 @@ class FfDevice {
   bool gone_ = false;
   bool shut_ = false;       // shut down: nothing more is sent
   bool rumble_has_ = false; // FF_RUMBLE usable at all (bit, option, an id)
+  bool give_up_rumble_ = false;  // ENOSPC for the constant: the rumble's id is erased next
   std::uint64_t uploads_ = 0;
+  std::uint64_t writes_ = 0;
   std::int16_t constant_id_ = -1;
   std::int16_t rumble_id_ = -1;
   ConstantCommand current_{};

@@ -42,8 +42,13 @@ bool DeviceMatch::matches(const DeviceIdentity& id) const {
 }
 
 HapticsEngine::HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
-                             HapticsStats& stats, LogSink log)
-    : board_(board), settings_(std::move(settings)), opener_(std::move(opener)), stats_(stats), log_(std::move(log)) {
+                             HapticsStats& stats, LogSink log, TimeSource& time)
+    : board_(board),
+      settings_(std::move(settings)),
+      opener_(std::move(opener)),
+      stats_(stats),
+      log_(std::move(log)),
+      time_(time) {
   for (int s = 0; s < HapticsStats::kSlots; ++s) publish_tuning(s);
 }
 
@@ -57,10 +62,15 @@ void HapticsEngine::say(int priority, const std::string& message) const {
 
 HapticsEngine::~HapticsEngine() { shutdown(); }
 
-PlayerTiming HapticsEngine::timing_for(const Attached& d) const {
-  const std::uint16_t bus = d.ff ? d.ff->identity().bustype : 0;
-  return PlayerTiming{interval_for_bus(bus, settings_.pacing), settings_.effect_length, settings_.rearm_every,
-                      settings_.change};
+PlayerTiming HapticsEngine::timing_for() const {
+  return PlayerTiming{settings_.effect_length, settings_.rearm_every, settings_.change};
+}
+
+std::shared_ptr<WritePacer> HapticsEngine::slot_pacer(int slot, const std::string& node,
+                                                      std::chrono::nanoseconds interval) {
+  SlotPacer& p = pacers_[slot];
+  if (!p.pacer || p.node != node) p = SlotPacer{node, std::make_shared<WritePacer>(interval)};
+  return p.pacer;
 }
 
 DeviceTuning HapticsEngine::config_tuning(const Attached* d) const {
@@ -105,7 +115,10 @@ void HapticsEngine::open_ff(Attached& d) {
   options.rumble = true;  // the force itself on rumble-only pads; kicks follow rumble_on_onset
   options.gain_at_open = false;  // the player writes it, paced like every other write
   try {
-    auto ff = std::make_unique<FfDevice>(opener_(d.node), options, &stats_.ff);
+    auto pacer = slot_pacer(d.slot, d.node, settings_.pacing.other);
+    auto ff = std::make_unique<FfDevice>(opener_(d.node), options, &stats_.ff, pacer, time_);
+    const auto interval = interval_for_bus(ff->identity().bustype, settings_.pacing);
+    pacer->set_interval(interval);
     if (valid_slot(d.slot))
       stats_.slot_bustype[static_cast<std::size_t>(d.slot)].store(ff->identity().bustype, std::memory_order_relaxed);
     if (ff->mode() == FfMode::none) {
@@ -114,7 +127,6 @@ void HapticsEngine::open_ff(Attached& d) {
     }
     ff->wait_for_ready(true);
     const int effects = ff->caps().effects_max;
-    const auto interval = interval_for_bus(ff->identity().bustype, settings_.pacing);
     say(kInfo, d.node + ": " + (ff->mode() == FfMode::constant ? "constant force" : "rumble force") +
                    (ff->mode() == FfMode::constant && ff->rumble_allowed() ? " + rumble kicks" : "") + ", " +
                    std::to_string(effects) + (effects == 1 ? " effect slot" : " effect slots") + ", bus 0x" +
@@ -125,7 +137,7 @@ void HapticsEngine::open_ff(Attached& d) {
                    }() +
                    " paced " + std::to_string(interval.count()) + " ms");
     d.ff = std::move(ff);
-    d.player.set_timing(timing_for(d));
+    d.player.set_timing(timing_for());
     d.player.gain(settings_.gain);
     stats_.ff_devices.fetch_add(1, std::memory_order_relaxed);
   } catch (const std::exception& e) {
@@ -163,6 +175,7 @@ void HapticsEngine::detach_alive(int slot) {
 
 void HapticsEngine::detach(int slot) {
   detach_triggers(slot, true);
+  pacers_.erase(slot);  // a device plugged in next is another one
   auto it = devices_.find(slot);
   if (it == devices_.end()) return;
   if (it->second.ff) {
@@ -187,7 +200,9 @@ void HapticsEngine::configure(const HapticsSettings& settings) {
       }
       open_ff(d);
     } else if (d.ff) {
-      d.player.set_timing(timing_for(d));
+      d.player.set_timing(timing_for());
+      if (auto p = pacers_.find(slot); p != pacers_.end())
+        p->second.pacer->set_interval(interval_for_bus(d.ff->identity().bustype, settings_.pacing));
       d.player.gain(settings_.gain);
     }
   }
@@ -231,12 +246,14 @@ void HapticsEngine::watch_suspend(Clock::time_point now, std::optional<std::chro
   const bool jumped = previous && offset - *previous > kSuspendJump;
   boot_offset_ = offset;
   if (jumped)
-    resumed(now, "CLOCK_BOOTTIME jumped " +
-                     std::to_string(std::chrono::duration_cast<std::chrono::seconds>(offset - *previous).count()) +
-                     " s ahead of CLOCK_MONOTONIC");
+    resumed_at(now, "CLOCK_BOOTTIME jumped " +
+                        std::to_string(std::chrono::duration_cast<std::chrono::seconds>(offset - *previous).count()) +
+                        " s ahead of CLOCK_MONOTONIC");
 }
 
-void HapticsEngine::resumed(Clock::time_point now, const std::string& how) {
+void HapticsEngine::resumed(const std::string& how) { resumed_at(time_.now(), how); }
+
+void HapticsEngine::resumed_at(Clock::time_point now, const std::string& how) {
   constexpr auto kSameResume = std::chrono::seconds(5);
   if (last_resume_ && now - *last_resume_ < kSameResume) return;
   last_resume_ = now;
@@ -249,22 +266,40 @@ void HapticsEngine::resumed(Clock::time_point now, const std::string& how) {
 }
 
 void HapticsEngine::reopen(Attached& d) {
-  d.ff->forget();  // closing the old fd erases its effects in the kernel
+  // Erased here, paced, rather than by the kernel as the old fd closes: that
+  // flush stops and erases each effect too, but behind the pacer's back.
+  // (A device gone with ENODEV only forgets its ids.)
+  d.ff->shutdown();
   stats_.ff_devices.fetch_sub(1, std::memory_order_relaxed);
   open_ff(d);
   d.gone_since.reset();
 }
 
-void HapticsEngine::poll(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime) {
+void HapticsEngine::poll(std::optional<std::chrono::nanoseconds> boottime) {
+  const Clock::time_point now = time_.now();
   watch_suspend(now, boottime);
   const bool quiet = silent(now);
+  poll_triggers(true, quiet);
   for (auto& [slot, d] : devices_) {
     if (!d.ff) continue;
-    if (d.ff->gone()) reopen_if_still_plugged(d, now);
-    if (d.ff && !d.ff->gone()) poll_device(d, now, quiet);
+    // Each device's own now: the writes to the ones before it took time.
+    const Clock::time_point at = time_.now();
+    if (d.ff->gone()) reopen_if_still_plugged(d, at);
+    if (d.ff && !d.ff->gone()) poll_device(d, at, quiet);
     count_uploads(slot, d);
   }
-  poll_triggers(now);
+  poll_triggers(false, quiet);
+}
+
+std::optional<Clock::time_point> HapticsEngine::next_due() const {
+  std::optional<Clock::time_point> due;
+  const Clock::time_point now = time_.now();
+  for (const auto& [slot, d] : devices_) {
+    if (!d.ff || !d.player.zero_waiting(*d.ff)) continue;
+    const Clock::time_point at = d.ff->pacer().next_at(now);
+    if (!due || at < *due) due = at;
+  }
+  return due;
 }
 
 void HapticsEngine::count_uploads(int slot, Attached& d) {
@@ -310,7 +345,6 @@ void HapticsEngine::poll_device(Attached& d, Clock::time_point now, bool quiet) 
 
   if (quiet) {
     d.player.silence();
-    d.player.want({}, {});
   } else {
     // Constant force follows the force in the stick's plane (it has a
     // direction); rumble has none, so it follows all of the device's

@@ -1,7 +1,7 @@
 // The haptics thread's work, without the thread: attached devices, the tools
 // each one feels, and per poll what each device should play. Single-threaded;
-// HapticsThread drives it. Tests drive it directly with a fake FfPort and an
-// explicit clock (and an explicit CLOCK_BOOTTIME reading for suspend).
+// HapticsThread drives it. Tests drive it directly with a fake FfPort and a
+// fake TimeSource (and an explicit CLOCK_BOOTTIME reading for suspend).
 #pragma once
 
 #include <array>
@@ -103,16 +103,20 @@ struct HapticsStats {
 
 class HapticsEngine {
  public:
-  HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener,
-                HapticsStats& stats, LogSink log = {});
+  // `time`: the clock every decision reads and every write is stamped with,
+  // and what a write that must wait for its pacer sleeps on.
+  HapticsEngine(const FeedbackBoard& board, HapticsSettings settings, PortOpener opener, HapticsStats& stats,
+                LogSink log = {}, TimeSource& time = steady_time());
   ~HapticsEngine();  // shutdown()
 
   // A device appeared on `slot` (the input layer's stable slot) at `node`,
-  // driving `tools`. Replaces what was on the slot (that one is shut down).
+  // driving `tools`. Replaces what was on the slot (that one is shut down,
+  // its erases paced; the same node keeps its pacer).
   // Open failures are counted and logged, never thrown.
   // `triggers`: which tools a DualSense's triggers drive (none: not driven).
   void attach(int slot, const std::string& node, std::vector<ToolStick> tools, TriggerBinding triggers = {});
-  // Unplugged: the kernel already dropped its effects; forget the ids.
+  // Unplugged: the kernel already dropped its effects; forget the ids (and
+  // the slot's pacer).
   void detach(int slot);
   // SIGHUP: new settings; run-time tunes are dropped (the config rules again).
   void configure(const HapticsSettings& settings);
@@ -123,15 +127,18 @@ class HapticsEngine {
   // the device attached there (overrides), else the [haptics] default.
   DeviceTuning tuning(int slot) const;
 
-  // Reads the board and writes what is due. `boottime` (CLOCK_BOOTTIME,
-  // since boot) lets the engine see a suspend: BOOTTIME runs on through it,
-  // the monotonic clock does not.
-  void poll(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime = std::nullopt);
+  // Reads the board and writes what is due, at the time source's now.
+  // `boottime` (CLOCK_BOOTTIME, since boot) lets the engine see a suspend:
+  // BOOTTIME runs on through it, the monotonic clock does not.
+  void poll(std::optional<std::chrono::nanoseconds> boottime = std::nullopt);
+  // When a zero (stall, hold) waits for a device's pacer: the earliest time
+  // one may go out. The thread polls then rather than at its next tick.
+  std::optional<Clock::time_point> next_due() const;
   // The machine resumed from suspend (logind's PrepareForSleep(false), or a
   // BOOTTIME jump): reopen every device, which sends a fresh neutral state.
   // A second report of the same resume (within 5 s) is ignored.
-  void resumed(Clock::time_point now, const std::string& how);
-  // Stop and erase every effect of every device, close them. Idempotent.
+  void resumed(const std::string& how);
+  // Erase every effect of every device (paced), close them. Idempotent.
   void shutdown();
 
   void set_trigger_opener(TriggerOpener opener) { trigger_opener_ = std::move(opener); }
@@ -162,6 +169,9 @@ class HapticsEngine {
   };
   void open_ff(Attached& d);
   void detach_alive(int slot);
+  // The pacer of the device on `slot` at `node`: the one it had (kept across
+  // reopen, reconfigure and re-attach), or a new one with `interval`.
+  std::shared_ptr<WritePacer> slot_pacer(int slot, const std::string& node, std::chrono::nanoseconds interval);
   void say(int priority, const std::string& message) const;
   bool silent(Clock::time_point now);
   void watch_suspend(Clock::time_point now, std::optional<std::chrono::nanoseconds> boottime);
@@ -170,7 +180,8 @@ class HapticsEngine {
   void reopen_if_still_plugged(Attached& d, Clock::time_point now);
   void reopen(Attached& d);
   void count_uploads(int slot, Attached& d);
-  PlayerTiming timing_for(const Attached& d) const;
+  PlayerTiming timing_for() const;
+  void resumed_at(Clock::time_point now, const std::string& how);
   DeviceTuning config_tuning(const Attached* d) const;
   void publish_tuning(int slot);
 
@@ -181,12 +192,19 @@ class HapticsEngine {
     std::string node;
     TriggerBinding binding;
     std::unique_ptr<TriggerRenderer> renderer;  // null: not a DualSense, no access, or disabled
+    bool polled = false;                        // in this poll already
+  };
+  // One per device (slot and node): its FF node and its triggers write to one
+  // firmware, so they share it. Dropped on unplug.
+  struct SlotPacer {
+    std::string node;
+    std::shared_ptr<WritePacer> pacer;
   };
   void attach_triggers(int slot, const std::string& node, TriggerBinding binding);
   void open_triggers(TriggerSlot& t);
   void detach_triggers(int slot, bool unplugged);
   void configure_triggers();
-  void poll_triggers(Clock::time_point now);
+  void poll_triggers(bool before_motors, bool quiet);
   void shutdown_triggers();
 
   const FeedbackBoard& board_;
@@ -194,7 +212,9 @@ class HapticsEngine {
   PortOpener opener_;
   HapticsStats& stats_;
   LogSink log_;
+  TimeSource& time_;
   std::map<int, Attached> devices_;
+  std::map<int, SlotPacer> pacers_;
   std::map<int, DeviceTuning> tunes_;  // run-time, per slot
   std::string last_error_;
   // The sim thread's beat, for stalls.

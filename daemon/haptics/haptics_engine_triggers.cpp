@@ -32,9 +32,12 @@ void HapticsEngine::open_triggers(TriggerSlot& t) {
     if (!hidraw) return;  // not a DualSense: nothing to say
     const std::string hidraw_node = hidraw->port->node();
     const bool bt = hidraw->transport == dualsense::Transport::bluetooth;
+    // The FF node's pacer when it has one (its interval is the bus's): one
+    // firmware, one floor for the motors' writes and the triggers' together.
+    auto pacer = slot_pacer(t.slot, t.node, dualsense::TriggerPacer::min_interval(hidraw->transport));
     t.renderer = std::make_unique<TriggerRenderer>(std::move(*hidraw), t.binding,
                                                    trigger_scale(settings_.triggers, settings_.force, tuning(t.slot)),
-                                                   &stats_.triggers, settings_.stall_after);
+                                                   &stats_.triggers, settings_.stall_after, std::move(pacer), time_);
     say(kInfo, t.node + ": DualSense adaptive triggers through " + hidraw_node + (bt ? " (Bluetooth)" : " (USB)") +
                    ": left → tool " + (t.binding.left_tool >= 0 ? std::to_string(t.binding.left_tool) : "none") +
                    ", right → tool " + (t.binding.right_tool >= 0 ? std::to_string(t.binding.right_tool) : "none"));
@@ -68,11 +71,18 @@ void HapticsEngine::configure_triggers() {
   }
 }
 
-void HapticsEngine::poll_triggers(Clock::time_point now) {
+void HapticsEngine::poll_triggers(bool before_motors, bool quiet) {
+  // Each renderer once per poll, before or after the FF devices. A DualSense's
+  // triggers and motors share the pacer, so whichever goes first takes the
+  // write when both want one: the triggers go first unless they wrote last
+  // (neither starves the other), and never while quiet (the motors' zero first).
   for (auto& [slot, t] : trigger_slots_) {
-    if (!t.renderer) continue;
+    if (before_motors) t.polled = false;
+    if (!t.renderer || t.polled) continue;
+    if (before_motors && (quiet || t.renderer->wrote_last())) continue;
+    t.polled = true;
     t.renderer->set_scale(trigger_scale(settings_.triggers, settings_.force, tuning(slot)));  // a run-time tune
-    t.renderer->poll(board_, now);
+    t.renderer->poll(board_, time_.now());
   }
 }
 

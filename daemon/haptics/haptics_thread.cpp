@@ -96,8 +96,12 @@ void HapticsThread::run() {
   std::deque<Command> batch;
   for (;;) {
     {
+      // A zero waiting for a device's pacer goes out when the pacer allows,
+      // not at the next tick after.
+      const auto due = engine_.next_due();
       std::unique_lock lock(mutex_);
-      wake_.wait_until(lock, next, [&] { return stopping_ || wake_now_ || !queue_.empty(); });
+      wake_.wait_until(lock, due && *due < next ? *due : next,
+                       [&] { return stopping_ || wake_now_ || !queue_.empty(); });
       if (stopping_) break;
       wake_now_ = false;
       batch.swap(queue_);
@@ -113,17 +117,15 @@ void HapticsThread::run() {
       } else if (auto* t = std::get_if<Tune>(&c)) {
         engine_.tune(t->slot, t->tuning);
       } else if (std::holds_alternative<Resumed>(c)) {
-        engine_.resumed(Clock::now(), "logind PrepareForSleep");
+        engine_.resumed("logind PrepareForSleep");
       }
     }
     batch.clear();
     const auto now = Clock::now();
+    engine_.poll(boottime());  // early (a command, a flush, a zero due): applied now, the schedule kept
     if (now >= next) {
-      engine_.poll(now, boottime());
       next += poll_interval_;
       if (next <= now) next = now + poll_interval_;  // fell behind (a slow ioctl): no burst to catch up
-    } else {
-      engine_.poll(now, boottime());  // woken early by a command or a flush: apply it now, keep the schedule
     }
     {
       std::lock_guard lock(mutex_);

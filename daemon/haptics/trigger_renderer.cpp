@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <thread>
 #include <utility>
 
 namespace sculpt::haptics {
@@ -18,13 +17,17 @@ dualsense::TriggerScale trigger_scale(const TriggerSettings& triggers, const For
 }
 
 TriggerRenderer::TriggerRenderer(DualSenseHidraw hidraw, TriggerBinding binding, dualsense::TriggerScale scale,
-                                 TriggerCounters* counters, std::chrono::nanoseconds stall_after)
+                                 TriggerCounters* counters, std::chrono::nanoseconds stall_after,
+                                 std::shared_ptr<WritePacer> pacer, TimeSource& time)
     : port_(std::move(hidraw.port)),
       transport_(hidraw.transport),
       binding_(binding),
       scale_(scale),
       counters_(counters),
       pacer_(dualsense::TriggerPacer::min_interval(transport_)),
+      device_pacer_(pacer ? std::move(pacer)
+                          : std::make_shared<WritePacer>(dualsense::TriggerPacer::min_interval(transport_))),
+      time_(&time),
       stall_(stall_after) {
   if (counters_) counters_->devices.fetch_add(1, std::memory_order_relaxed);
 }
@@ -50,12 +53,8 @@ dualsense::TriggerPair TriggerRenderer::want(const FeedbackBoard& board, Clock::
 void TriggerRenderer::poll(const FeedbackBoard& board, Clock::time_point now) {
   if (gone_ || stopped_) return;
   const dualsense::TriggerPair p = want(board, now);
-  if (!pacer_.should_send(p, now)) return;
-  last_write_at_ = now;
-  if (write(p))
-    pacer_.sent(p, now);
-  else
-    pacer_.failed(now);
+  if (!device_pacer_->ready(now) || !pacer_.should_send(p, now)) return;
+  write(p);
 }
 
 bool TriggerRenderer::write(const dualsense::TriggerPair& pair) {
@@ -63,6 +62,18 @@ bool TriggerRenderer::write(const dualsense::TriggerPair& pair) {
   const std::size_t len = dualsense::build_trigger_report(transport_, pair, bt_seq_, buf);
   const int err = port_->write_report(std::span<const std::uint8_t>(buf.data(), len));
   if (transport_ == dualsense::Transport::bluetooth) bt_seq_ = (bt_seq_ + 1) & 0x0f;
+  if (err != ENODEV) {
+    // Stamped when the write returned: the interval runs between the
+    // reports the kernel got, however long this one took.
+    const Clock::time_point at = time_->now();
+    last_write_at_ = at;
+    device_pacer_->wrote(at);
+    pacer_writes_ = device_pacer_->writes();
+    if (err == 0)
+      pacer_.sent(pair, at);
+    else
+      pacer_.failed(at);
+  }
   if (err == 0) {
     ++writes_;
     if (counters_) counters_->writes.fetch_add(1, std::memory_order_relaxed);
@@ -77,11 +88,10 @@ void TriggerRenderer::shutdown() {
   if (stopped_) return;
   stopped_ = true;
   if (gone_) return;
-  // Keep the transport's spacing even now: the last write may be a moment ago.
-  // (Bounded by the interval: a poll time from a test's own clock may lie ahead.)
-  const auto interval = dualsense::TriggerPacer::min_interval(transport_);
-  const auto wait = last_write_at_ + interval - Clock::now();
-  if (wait > Clock::duration::zero()) std::this_thread::sleep_for(std::min<Clock::duration>(wait, interval));
+  // Keep the spacing even now: the last write to the pad (ours, or its FF
+  // node's) may be a moment ago.
+  device_pacer_->wait(*time_);
+  if (last_write_at_) time_->sleep_until(*last_write_at_ + dualsense::TriggerPacer::min_interval(transport_));
   write(dualsense::TriggerPair{});
 }
 

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include <memory>
 #include <vector>
 
+#include "fake_port.hpp"
 #include "haptics/dualsense_triggers.hpp"
 #include "haptics/haptics_engine.hpp"
 #include "haptics/hidraw_port.hpp"
@@ -260,12 +262,21 @@ TEST_F(FakeSysfs, OpensOnlyADualSense) {
 struct FakeHidrawState {
   std::vector<std::vector<std::uint8_t>> reports;
   int fail_with = 0;  // errno for the next writes
+  // Optional: a clock each write takes `cost` on, and when each started and returned.
+  std::shared_ptr<testing::FakeClock> clock;
+  Clock::duration cost{};
+  std::vector<std::pair<Clock::time_point, Clock::time_point>> times;
 };
 
 class FakeHidraw final : public HidrawPort {
  public:
   FakeHidraw(std::shared_ptr<FakeHidrawState> s, std::string node) : s_(std::move(s)), node_(std::move(node)) {}
   int write_report(std::span<const std::uint8_t> r) override {
+    if (s_->clock) {
+      const auto at = s_->clock->now();
+      s_->clock->advance(s_->cost);
+      s_->times.emplace_back(at, s_->clock->now());
+    }
     if (s_->fail_with) return s_->fail_with;
     s_->reports.emplace_back(r.begin(), r.end());
     return 0;
@@ -295,6 +306,12 @@ Felt felt(double newton) {
 
 class Renderer : public ::testing::Test {
  protected:
+  // A poll at `t` on the renderer's clock.
+  void poll_at(TriggerRenderer& r, Clock::time_point t) {
+    clock.advance_to(t);
+    r.poll(board, t);
+  }
+  testing::FakeClock clock;
   FeedbackBoard board{4};
   std::shared_ptr<FakeHidrawState> pad = std::make_shared<FakeHidrawState>();
   TriggerCounters counters;
@@ -303,111 +320,117 @@ class Renderer : public ::testing::Test {
 };
 
 TEST_F(Renderer, EachTriggerFeelsItsOwnTool) {
-  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{1, 2}, scale, &counters);
+  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{1, 2}, scale, &counters, TriggerRenderer::kStallAfter, nullptr,
+                    clock);
   EXPECT_EQ(counters.devices.load(), 1);
-  r.poll(board, t0);  // first poll: neutral, the pad's state is ours from now on
+  poll_at(r, t0);  // first poll: neutral, the pad's state is ours from now on
   ASSERT_EQ(pad->reports.size(), 1u);
   EXPECT_EQ(right_mode(pad->reports[0]), kModeOff);
   board.publish(2, felt(1.0));
   board.publish(1, felt(2.0));
   board.beat();
-  r.poll(board, t0 + 5ms);
+  poll_at(r, t0 + 5ms);
   EXPECT_EQ(pad->reports.size(), 1u) << "10 ms apart on USB";
-  r.poll(board, t0 + 10ms);
+  poll_at(r, t0 + 10ms);
   ASSERT_EQ(pad->reports.size(), 2u);
   EXPECT_EQ(right_mode(pad->reports[1]), kModeResistance);
   EXPECT_EQ(right_force(pad->reports[1]), 128);
   EXPECT_EQ(left_force(pad->reports[1]), 255);
   board.beat();
-  r.poll(board, t0 + 30ms);
+  poll_at(r, t0 + 30ms);
   EXPECT_EQ(pad->reports.size(), 2u) << "no change, no write";
   board.publish(2, felt(0));
   board.publish(1, felt(0));
   board.beat();
-  r.poll(board, t0 + 40ms);
+  poll_at(r, t0 + 40ms);
   ASSERT_EQ(pad->reports.size(), 3u);
   EXPECT_EQ(right_mode(pad->reports[2]), kModeOff);
   EXPECT_EQ(counters.writes.load(), 3u);
 }
 
 TEST_F(Renderer, NeutralWhileHeldOrStalled) {
-  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{-1, 0}, scale);
+  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{-1, 0}, scale, nullptr, TriggerRenderer::kStallAfter, nullptr,
+                    clock);
   board.publish(0, felt(1.0));
   board.beat();
-  r.poll(board, t0);
+  poll_at(r, t0);
   ASSERT_EQ(pad->reports.size(), 1u);
   EXPECT_EQ(right_force(pad->reports.back()), 128);
   EXPECT_EQ(pad->reports.back()[kUsbCommonOffset + kLeftTriggerBlock], kModeOff) << "unbound trigger";
   for (Hold h : {Hold::paused, Hold::swapping, Hold::stopped}) {
     board.set_hold(h);
     board.beat();
-    r.poll(board, t0 + 20ms * (1 + static_cast<int>(h)));
+    poll_at(r, t0 + 20ms * (1 + static_cast<int>(h)));
     EXPECT_EQ(right_mode(pad->reports.back()), kModeOff) << static_cast<int>(h);
     board.set_hold(Hold::none);
     board.beat();
-    r.poll(board, t0 + 20ms * (1 + static_cast<int>(h)) + 10ms);
+    poll_at(r, t0 + 20ms * (1 + static_cast<int>(h)) + 10ms);
     EXPECT_EQ(right_force(pad->reports.back()), 128);
   }
   // The sim stops beating: neutral once 100 ms passed without a beat.
   const auto t1 = t0 + 200ms;
   board.beat();
-  r.poll(board, t1);
-  r.poll(board, t1 + 100ms);
+  poll_at(r, t1);
+  poll_at(r, t1 + 100ms);
   EXPECT_EQ(right_force(pad->reports.back()), 128);
-  r.poll(board, t1 + 101ms);
+  poll_at(r, t1 + 101ms);
   EXPECT_EQ(right_mode(pad->reports.back()), kModeOff);
   board.beat();
-  r.poll(board, t1 + 120ms);
+  poll_at(r, t1 + 120ms);
   EXPECT_EQ(right_force(pad->reports.back()), 128) << "beating again";
 }
 
 TEST_F(Renderer, ShutdownWritesNeutralOnceForgetWritesNothing) {
   {
-    TriggerRenderer r(fake_hidraw(pad), TriggerBinding{0, 0}, scale);
+    TriggerRenderer r(fake_hidraw(pad), TriggerBinding{0, 0}, scale, nullptr, TriggerRenderer::kStallAfter, nullptr,
+                      clock);
     board.publish(0, felt(1.0));
     board.beat();
-    r.poll(board, t0);
+    poll_at(r, t0);
     r.shutdown();
     ASSERT_EQ(pad->reports.size(), 2u);
     EXPECT_EQ(right_mode(pad->reports.back()), kModeOff);
     EXPECT_EQ(pad->reports.back()[kUsbCommonOffset + kLeftTriggerBlock], kModeOff);
-    r.poll(board, t0 + 1s);
+    poll_at(r, t0 + 1s);
   }  // the destructor does not write again
   EXPECT_EQ(pad->reports.size(), 2u);
   {
-    TriggerRenderer r(fake_hidraw(pad), TriggerBinding{0, 0}, scale);
+    TriggerRenderer r(fake_hidraw(pad), TriggerBinding{0, 0}, scale, nullptr, TriggerRenderer::kStallAfter, nullptr,
+                      clock);
     r.forget();
   }
   EXPECT_EQ(pad->reports.size(), 2u);
 }
 
 TEST_F(Renderer, EnodevStopsWritingOtherErrorsRetry) {
-  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{-1, 0}, scale, &counters);
+  TriggerRenderer r(fake_hidraw(pad), TriggerBinding{-1, 0}, scale, &counters, TriggerRenderer::kStallAfter, nullptr,
+                    clock);
   pad->fail_with = EAGAIN;
-  r.poll(board, t0);
+  poll_at(r, t0);
   EXPECT_EQ(counters.errors.load(), 1u);
   pad->fail_with = 0;
-  r.poll(board, t0 + 5ms);
+  poll_at(r, t0 + 5ms);
   EXPECT_EQ(pad->reports.size(), 0u);
-  r.poll(board, t0 + 10ms);
+  poll_at(r, t0 + 10ms);
   EXPECT_EQ(pad->reports.size(), 1u) << "retried after the interval";
   pad->fail_with = ENODEV;
   board.publish(0, felt(1.0));
   board.beat();
-  r.poll(board, t0 + 20ms);
+  poll_at(r, t0 + 20ms);
   EXPECT_TRUE(r.gone());
   pad->fail_with = 0;
-  r.poll(board, t0 + 40ms);
+  poll_at(r, t0 + 40ms);
   r.shutdown();
   EXPECT_EQ(pad->reports.size(), 1u);
 }
 
 TEST_F(Renderer, BluetoothReportsCarryASequenceAndA25msPace) {
-  TriggerRenderer r(fake_hidraw(pad, Transport::bluetooth), TriggerBinding{-1, 0}, scale);
+  TriggerRenderer r(fake_hidraw(pad, Transport::bluetooth), TriggerBinding{-1, 0}, scale, nullptr,
+                    TriggerRenderer::kStallAfter, nullptr, clock);
   for (int i = 0; i < 20; ++i) {
     board.publish(0, felt(0.1 * (i + 1)));
     board.beat();
-    r.poll(board, t0 + 25ms * i);
+    poll_at(r, t0 + 25ms * i);
   }
   ASSERT_EQ(pad->reports.size(), 20u);
   for (std::size_t i = 0; i < pad->reports.size(); ++i) {
@@ -421,7 +444,7 @@ TEST_F(Renderer, BluetoothReportsCarryASequenceAndA25msPace) {
   }
   board.publish(0, felt(0.05 * 3));
   board.beat();
-  r.poll(board, t0 + 25ms * 19 + 24ms);
+  poll_at(r, t0 + 25ms * 19 + 24ms);
   EXPECT_EQ(pad->reports.size(), 20u);
 }
 
@@ -431,8 +454,9 @@ class EngineTriggers : public ::testing::Test {
   EngineTriggers() {
     settings.force = ForceScale{2.0, 0.0, 1.0};  // linear: 1 N is half the level
     engine = std::make_unique<HapticsEngine>(
-        board, settings, [](const std::string& node) -> std::unique_ptr<FfPort> { throw std::runtime_error("no FF on " + node); },
-        stats, [this](int, const std::string& m) { log.push_back(m); });
+        board, settings,
+        [](const std::string& node) -> std::unique_ptr<FfPort> { throw std::runtime_error("no FF on " + node); }, stats,
+        [this](int, const std::string& m) { log.push_back(m); }, *clock);
     engine->set_trigger_opener([this](const std::string& node) -> std::optional<DualSenseHidraw> {
       ++opens;
       if (node == "/dev/input/denied") throw std::system_error(EACCES, std::generic_category(), "/dev/hidraw4");
@@ -440,6 +464,11 @@ class EngineTriggers : public ::testing::Test {
       return fake_hidraw(pad);
     });
   }
+  void poll_at(Clock::time_point t) {
+    clock->advance_to(t);
+    engine->poll();
+  }
+  std::shared_ptr<testing::FakeClock> clock = std::make_shared<testing::FakeClock>();
   FeedbackBoard board{4};
   HapticsSettings settings;
   HapticsStats stats;
@@ -456,7 +485,7 @@ TEST_F(EngineTriggers, DrivesADualSenseEvenWithoutFf) {
   EXPECT_EQ(stats.triggers.devices.load(), 1);
   board.publish(1, felt(1.0));
   board.beat();
-  engine->poll(t0);
+  poll_at(t0);
   ASSERT_EQ(pad->reports.size(), 1u);
   EXPECT_EQ(right_force(pad->reports[0]), 128);
   engine->shutdown();
@@ -488,11 +517,11 @@ TEST_F(EngineTriggers, UnplugWritesNothingReplaceWritesNeutral) {
   engine->attach(0, "/dev/input/ds", {}, TriggerBinding{-1, 1});
   board.publish(1, felt(1.0));
   board.beat();
-  engine->poll(t0);
+  poll_at(t0);
   engine->detach(0);
   EXPECT_EQ(pad->reports.size(), 1u);
   engine->attach(0, "/dev/input/ds", {}, TriggerBinding{-1, 1});
-  engine->poll(t0 + 1s);
+  poll_at(t0 + 1s);
   EXPECT_EQ(pad->reports.size(), 2u);
   engine->attach(0, "/dev/input/ds", {}, TriggerBinding{-1, 1});  // replaced while plugged in
   ASSERT_EQ(pad->reports.size(), 3u);
@@ -503,12 +532,12 @@ TEST_F(EngineTriggers, SighupTurnsThemOffAndOnAndRescales) {
   engine->attach(0, "/dev/input/ds", {}, TriggerBinding{-1, 1});
   board.publish(1, felt(1.0));
   board.beat();
-  engine->poll(t0);
+  poll_at(t0);
   EXPECT_EQ(right_force(pad->reports.back()), 128);
   settings.triggers.strength = 0.5;
   engine->configure(settings);
   board.beat();
-  engine->poll(t0 + 20ms);
+  poll_at(t0 + 20ms);
   EXPECT_EQ(right_force(pad->reports.back()), 64);
   settings.triggers.enabled = false;
   engine->configure(settings);
@@ -518,8 +547,44 @@ TEST_F(EngineTriggers, SighupTurnsThemOffAndOnAndRescales) {
   engine->configure(settings);
   ASSERT_NE(engine->triggers(0), nullptr);
   board.beat();
-  engine->poll(t0 + 1s);
+  poll_at(t0 + 1s);
   EXPECT_EQ(right_force(pad->reports.back()), 64);
+}
+
+// One DualSense, one firmware: its FF node (rumble through hid-playstation)
+// and its hidraw node (the triggers) share one pacer. With both wanting to
+// write all the time and every write taking time, no two writes to the pad
+// come closer than the floor, end to start, and neither starves the other.
+TEST_F(EngineTriggers, MotorsAndTriggersOfOneDualSenseShareOneFloor) {
+  auto ff = testing::fake_device({FF_RUMBLE, FF_GAIN}, 16);
+  ff->identity.bustype = BUS_USB;
+  ff->clock = clock;
+  ff->cost = testing::CallCost{4ms, 3ms, 2ms, 2ms};
+  pad->clock = clock;
+  pad->cost = 3ms;
+  engine = std::make_unique<HapticsEngine>(
+      board, settings,
+      [&](const std::string& node) -> std::unique_ptr<FfPort> { return std::make_unique<testing::FakePort>(ff, node); },
+      stats, [this](int, const std::string& m) { log.push_back(m); }, *clock);
+  engine->set_trigger_opener([this](const std::string&) -> std::optional<DualSenseHidraw> { return fake_hidraw(pad); });
+  engine->attach(0, "/dev/input/ds", {{1, StickPlane{}}}, TriggerBinding{-1, 1});
+  Clock::time_point t = t0;
+  for (int i = 0; i < 2000; ++i) {
+    board.publish(1, felt(1.0 + 0.9 * std::sin(i * 0.05)));  // every report could differ
+    if (i < 1500 || i > 1600) board.beat();                  // a stall between
+    t = std::max(t + 2ms, clock->now());
+    poll_at(t);
+  }
+  engine->shutdown();
+
+  std::vector<std::pair<Clock::time_point, Clock::time_point>> writes = pad->times;
+  for (const auto& c : ff->calls) writes.emplace_back(c.at, c.end);
+  std::sort(writes.begin(), writes.end());
+  for (std::size_t i = 1; i < writes.size(); ++i)
+    ASSERT_GE(writes[i].first - writes[i - 1].second, 10ms) << "write " << i;
+  EXPECT_GT(pad->reports.size(), 100u) << "the triggers got their turns";
+  EXPECT_GT(ff->of(testing::FakeDeviceState::Call::upload).size(), 100u) << "and so did the motors";
+  EXPECT_EQ(right_mode(pad->reports.back()), kModeOff) << "neutral on shutdown";
 }
 
 }  // namespace

@@ -1,7 +1,10 @@
 // The upload state machine against a fake device: id −1 once then the same
 // id, play once, gain, EINVAL / ENOSPC fallbacks, ff_effects_max = 1,
-// rumble-only and no-FF devices, stop + erase on shutdown, forget on unplug.
+// rumble-only and no-FF devices, erase on shutdown, forget on unplug; every
+// call one write to the driver, paced and stamped when it returned.
 #include <gtest/gtest.h>
+
+#include <optional>
 
 #include "fake_port.hpp"
 #include "haptics/ff_device.hpp"
@@ -106,6 +109,8 @@ TEST(FfDevice, EinvalOnAnUpdateMeansTheIdVanished) {
   ASSERT_TRUE(set_constant(*dev, {1000, 0}));
   // Someone erased it behind our back: the kernel now refuses the id.
   s->used[static_cast<std::size_t>(dev->constant_id())] = false;
+  EXPECT_FALSE(dev->upload_constant({2000, 0}, 20000)) << "one write per call: the fresh upload is the next call";
+  EXPECT_EQ(dev->constant_id(), -1);
   ASSERT_TRUE(set_constant(*dev, {2000, 0}));
   const auto ups = s->of(Call::upload);
   ASSERT_EQ(ups.size(), 3u);
@@ -133,14 +138,27 @@ TEST(FfDevice, EnospcForTheConstantTakesTheRumbleId) {
   auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 2);
   auto dev = make(s);
   ASSERT_TRUE(kick(*dev, {0x8000, 0x8000, 60}));
+  const std::int16_t rumble = dev->rumble_id();
+  ASSERT_TRUE(s->playing[static_cast<std::size_t>(rumble)]);
   s->used[1] = true;  // another client holds the other id
+  // One write per call: the upload that meets ENOSPC, then the rumble's
+  // erase, then the constant's upload.
+  auto n = s->calls.size();
+  EXPECT_FALSE(dev->upload_constant({1000, 0}, 20000));
+  EXPECT_EQ(s->calls.size(), n + 1);
+  EXPECT_FALSE(dev->rumble_allowed()) << "no kicks meanwhile";
+  n = s->calls.size();
+  EXPECT_FALSE(dev->upload_constant({1000, 0}, 20000));
+  EXPECT_EQ(s->calls.size(), n + 1);
+  const auto erases = s->of(Call::erase);
+  ASSERT_EQ(erases.size(), 1u);
+  EXPECT_EQ(erases[0].id, rumble);
+  EXPECT_FALSE(s->playing[static_cast<std::size_t>(rumble)]) << "stopped as it was erased (by the kernel's erase)";
+  EXPECT_FALSE(has_write(*s, rumble, 0)) << "no separate stop: a write the kernel's erase makes anyway";
   ASSERT_TRUE(set_constant(*dev, {1000, 0}));
   EXPECT_GE(dev->constant_id(), 0);
   EXPECT_EQ(dev->rumble_id(), -1);
   EXPECT_FALSE(dev->rumble_allowed());
-  const auto erases = s->of(Call::erase);
-  ASSERT_EQ(erases.size(), 1u);
-  EXPECT_TRUE(has_write(*s, erases[0].id, 0));  // stopped before erased
 }
 
 TEST(FfDevice, EnospcWithNothingToGiveUpIsRetriedLater) {
@@ -204,16 +222,20 @@ TEST(FfDevice, OptionsCanTurnEitherEffectOff) {
   EXPECT_FALSE(dev->rumble_allowed());
 }
 
-TEST(FfDevice, ShutdownStopsAndErasesEverything) {
+TEST(FfDevice, ShutdownErasesEverythingWhichStopsIt) {
   auto s = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   FfCounters counters;
   auto dev = make(s, &counters);
   ASSERT_TRUE(set_constant(*dev, {1000, 0}));
   ASSERT_TRUE(kick(*dev, {1000, 1000, 60}));
   const std::int16_t c = dev->constant_id(), r = dev->rumble_id();
+  ASSERT_TRUE(s->playing[static_cast<std::size_t>(c)]);
+  ASSERT_TRUE(s->playing[static_cast<std::size_t>(r)]);
+  const auto before = s->calls.size();
   dev->shutdown();
-  EXPECT_TRUE(has_write(*s, c, 0));
-  EXPECT_TRUE(has_write(*s, r, 0));
+  EXPECT_FALSE(s->playing[static_cast<std::size_t>(c)]) << "stopped (the kernel's erase stops it)";
+  EXPECT_FALSE(s->playing[static_cast<std::size_t>(r)]);
+  EXPECT_EQ(s->calls.size(), before + 2) << "one erase per effect, no separate stops";
   const auto erases = s->of(Call::erase);
   ASSERT_EQ(erases.size(), 2u);
   EXPECT_EQ(s->live(), 0);
@@ -289,6 +311,56 @@ TEST(FfDevice, RumbleOnlyPadHoldsOneRumbleIdUpdatedInPlace) {
   for (std::size_t i = 1; i < ups.size(); ++i) EXPECT_EQ(ups[i].effect.id, dev->rumble_id());
   EXPECT_EQ(s->live(), 1);
   EXPECT_EQ(dev->current_rumble().strong, 4900);
+}
+
+}  // namespace
+}  // namespace sculpt::haptics
+
+namespace sculpt::haptics {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::CallCost;
+using testing::FakeClock;
+
+// Every call waits for the pacer and stamps it when the call returned: with
+// writes that take 3..5 ms, made back to back, the kernel still sees them
+// 10 ms apart, end to start. Uploads, plays, FF_GAIN, ENOSPC's erase, the
+// EINVAL retry and shutdown's erases all count; ENODEV reached no driver.
+TEST(FfDevice, EveryWriteWaitsForThePacerAndStampsItWhenItReturned) {
+  auto s = fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 2);
+  FakeClock& clock = *s->clock;
+  s->cost = CallCost{4ms, 3ms, 3ms, 2ms};
+  auto pacer = std::make_shared<WritePacer>(10ms);
+  FfCounters counters;
+  auto dev = std::make_unique<FfDevice>(std::make_unique<FakePort>(s), FfDeviceOptions{}, &counters, pacer, clock);
+  dev->wait_for_ready(true);
+  s->upload_errors = {ENODEV};
+  EXPECT_FALSE(dev->upload_constant({1000, 0}, 20000));
+  EXPECT_TRUE(dev->not_ready());
+  ASSERT_TRUE(set_constant(*dev, {1000, 0}));
+  ASSERT_TRUE(kick(*dev, {0x8000, 0x8000, 60}));
+  dev->set_gain(0x8000);
+  s->used[static_cast<std::size_t>(dev->constant_id())] = false;  // vanished: EINVAL, then a fresh upload
+  EXPECT_FALSE(dev->upload_constant({2000, 0}, 20000));
+  s->used[0] = true;  // another client took it meanwhile: ENOSPC for the fresh upload...
+  EXPECT_FALSE(dev->upload_constant({2000, 0}, 20000));
+  EXPECT_FALSE(dev->upload_constant({2000, 0}, 20000));  // ...so the rumble's id is erased
+  ASSERT_TRUE(set_constant(*dev, {2000, 0}));
+  dev->shutdown();
+
+  ASSERT_GE(s->calls.size(), 12u);
+  std::optional<Call> prev;
+  for (const auto& c : s->calls) {
+    if (c.result == ENODEV) continue;  // reached no driver: not stamped, not paced
+    if (prev) {
+      EXPECT_GE(c.at - prev->end, 10ms) << "call " << (&c - s->calls.data());
+    }
+    prev = c;
+  }
+  EXPECT_EQ(pacer->writes(), s->calls.size() - 1);
+  EXPECT_EQ(dev->writes(), s->calls.size() - 1);
+  EXPECT_GT(clock.sleeps(), 0);
 }
 
 }  // namespace

@@ -64,7 +64,6 @@ void BM_EnginePoll(benchmark::State& state) {
   }, stats);
   for (int i = 0; i < n; ++i) engine.attach(i, "/dev/input/event" + std::to_string(i), {{i, StickPlane{}}});
   sculpt::haptics::Felt f;
-  auto now = Clock::time_point{};
   double a = 0;
   for (auto _ : state) {
     state.PauseTiming();
@@ -74,8 +73,7 @@ void BM_EnginePoll(benchmark::State& state) {
     for (int i = 0; i < n; ++i) board.publish(i, f);
     for (auto& d : devices) d->calls.clear();
     state.ResumeTiming();
-    engine.poll(now);
-    now += std::chrono::milliseconds(4);
+    engine.poll();
   }
   state.counters["uploads"] = static_cast<double>(stats.ff.uploads.load());
 }

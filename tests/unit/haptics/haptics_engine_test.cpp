@@ -1,13 +1,14 @@
-// The haptics thread's decisions, driven directly with fake devices and an
-// explicit clock: continuous force (constant, or rumble on rumble-only pads),
+// The haptics thread's decisions, driven directly with fake devices and a
+// fake clock: continuous force (constant, or rumble on rumble-only pads),
 // kicks on onset, one id per effect updated in place, per-bus pacing over
 // 10 000 polls, re-arm before the replay length runs out, gain and limit,
 // zero on a stall or a hold, neutral after a suspend, first uploads retried
 // while a new device is not ready, forget on unplug and re-upload on replug.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -42,14 +43,16 @@ class Engine : public ::testing::Test {
     settings.force = ForceScale{2.0, 0.1, 1.0};
     settings.rumble = RumbleScale{0.02, 1e-5, 0.5, 40, 0.0, 0.25};
   }
-  // One poll at `t`, with every fake device's clock at `t`.
+  // One poll at `t` on the shared clock (later if writes or waits took the
+  // clock past it).
   void poll_at(Clock::time_point t, std::optional<std::chrono::nanoseconds> boottime = std::nullopt) {
-    for (auto& [node, d] : devices) d->now = t;
-    engine().poll(t, boottime);
+    clock->advance_to(t);
+    engine().poll(boottime);
   }
   std::shared_ptr<FakeDeviceState> pad(const std::string& node, std::initializer_list<std::uint16_t> bits,
                                        int effects, std::uint16_t bus = BUS_USB) {
     auto d = devices[node] = fake_device(bits, effects);
+    d->clock = clock;
     d->identity.bustype = bus;
     d->identity.vendor = 0x045e;
     d->identity.product = 0x028e;
@@ -70,14 +73,21 @@ class Engine : public ::testing::Test {
     return out;
   }
   HapticsEngine& engine() {
-    if (!engine_)
-      engine_ = std::make_unique<HapticsEngine>(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
-        auto it = devices.find(node);
-        if (it == devices.end()) throw std::runtime_error("cannot open " + node);
-        ++opens[node];
-        return std::make_unique<FakePort>(it->second, node);
-      }, stats);
+    if (!engine_) make_engine({});
     return *engine_;
+  }
+  // The engine on the test's clock; every device opened shares it.
+  void make_engine(LogSink log) {
+    engine_ = std::make_unique<HapticsEngine>(
+        board, settings,
+        [this](const std::string& node) -> std::unique_ptr<FfPort> {
+          auto it = devices.find(node);
+          if (it == devices.end()) throw std::runtime_error("cannot open " + node);
+          ++opens[node];
+          it->second->clock = clock;
+          return std::make_unique<FakePort>(it->second, node);
+        },
+        stats, std::move(log), *clock);
   }
   std::vector<Call> constant_uploads(const FakeDeviceState& s) {
     std::vector<Call> out;
@@ -92,6 +102,7 @@ class Engine : public ::testing::Test {
     return out;
   }
 
+  std::shared_ptr<testing::FakeClock> clock = std::make_shared<testing::FakeClock>();
   FeedbackBoard board{2};
   HapticsSettings settings;
   HapticsStats stats;
@@ -264,6 +275,109 @@ TEST_F(Engine, PerBusIntervalsAreNeverViolatedOverTenThousandPolls) {
   EXPECT_EQ(stats.ff.errors.load(), 0u);
 }
 
+// The floor holds between the writes the kernel receives, however long each
+// write takes: every call to a device (uploads, plays, FF_GAIN, erases; the
+// ones that failed too) starts at least the bus's interval after the previous
+// one RETURNED. Writes take 3..7 ms here, polls come every 2 ms and off the
+// grid, and everything that writes happens: attach → first upload → gain,
+// kicks (a constant-force Bluetooth pad's upload, then its play), SIGHUP's
+// gain, a hold and a stall (zeros first, woken for when due), a reconfigure
+// that reopens every device, a re-attach on an occupied slot, EINVAL and
+// ENOSPC fallbacks, and shutdown's erases.
+TEST_F(Engine, PacingHoldsBetweenTheWritesTheKernelGetsWhenWritesAreSlow) {
+  auto usb = pad("/dev/input/event1", {FF_RUMBLE, FF_GAIN}, 16, BUS_USB);
+  auto bt = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16, BUS_BLUETOOTH);
+  auto virt = pad("/dev/input/event3", {FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 2, BUS_VIRTUAL);
+  for (const auto& d : {usb, bt, virt}) d->cost = testing::CallCost{5ms, 4ms, 3ms, 2ms};
+  usb->jitter_seed = 7;
+  bt->jitter_seed = 11;
+  engine().attach(0, "/dev/input/event1", {{0, kPlane}});
+  engine().attach(1, "/dev/input/event2", {{0, kPlane}});
+  engine().attach(2, "/dev/input/event3", {{1, kPlane}});
+
+  bool einval_done = false, enospc_done = false;
+  Clock::time_point t = t0;
+  for (int i = 0; i < 4000; ++i) {
+    const double f = 0.8 + 0.7 * std::sin(i * 0.05);
+    const bool onset = i % 37 == 0;
+    board.publish(0, push(f, 0.3 * f, onset, 0.001 * (1 + i % 5)));
+    board.publish(1, push(0.5 * f, -0.4 * f, onset, 0.002));
+    const bool stalled = i >= 2000 && i < 2100;
+    if (!stalled) board.beat();
+    if (i == 1000) {
+      settings.gain = 0x9000;
+      engine().configure(settings);  // SIGHUP: FF_GAIN again
+    }
+    if (i == 1500) board.set_hold(Hold::paused);
+    if (i == 1600) board.set_hold(Hold::none);
+    if (i == 2500 || i == 2700) {
+      settings.constant = i == 2700;
+      engine().configure(settings);  // reopens every device: erases, then fresh uploads
+    }
+    if (i == 3000) engine().attach(1, "/dev/input/event2", {{0, kPlane}});  // again, still plugged in
+    if (i == 3200 && engine().device(0)->rumble_id() >= 0) {
+      usb->used[static_cast<std::size_t>(engine().device(0)->rumble_id())] = false;  // vanished: EINVAL
+      einval_done = true;
+    }
+    if (i == 3300 && engine().device(2)->constant_id() >= 0 && engine().device(2)->rumble_id() >= 0) {
+      // The constant's id vanishes and another client takes it: EINVAL, then
+      // ENOSPC, so the kick's id is given up (erased) for the constant.
+      virt->used[static_cast<std::size_t>(engine().device(2)->constant_id())] = false;
+      virt->upload_errors = {0, ENOSPC};
+      enospc_done = true;
+    }
+    // Every 2 ms, sometimes off the grid, and when a zero is due (the thread's wake-up).
+    Clock::time_point next = t + (i % 7 == 3 ? 700us : 2ms);
+    if (const auto due = engine().next_due(); due && *due > t && *due < next) next = *due;
+    t = std::max(next, clock->now());
+    poll_at(t);
+  }
+  engine().shutdown();
+  ASSERT_TRUE(einval_done);
+  ASSERT_TRUE(enospc_done);
+
+  struct Case {
+    const char* what;
+    const FakeDeviceState* d;
+    std::chrono::milliseconds floor;
+  };
+  for (const Case& c :
+       {Case{"USB", usb.get(), 10ms}, Case{"Bluetooth", bt.get(), 25ms}, Case{"virtual", virt.get(), 10ms}}) {
+    ASSERT_GT(c.d->calls.size(), 100u) << c.what;
+    Clock::duration closest = Clock::duration::max();
+    for (std::size_t i = 1; i < c.d->calls.size(); ++i) {
+      const auto& prev = c.d->calls[i - 1];
+      const auto& next = c.d->calls[i];
+      ASSERT_NE(next.result, ENODEV);  // every call here reached the "driver"
+      ASSERT_GE(next.at - prev.end, c.floor)
+          << c.what << ": call " << i << " (kind " << next.kind << ") after kind " << prev.kind;
+      closest = std::min(closest, next.at - prev.end);
+    }
+    std::printf("%-9s %4zu calls, closest %.2f ms end to start (floor %lld ms)\n", c.what, c.d->calls.size(),
+                std::chrono::duration<double, std::milli>(closest).count(), static_cast<long long>(c.floor.count()));
+  }
+  // What the run went through, so the pairs above cover every kind of write.
+  auto count = [](const FakeDeviceState& d, auto pred) { return std::count_if(d.calls.begin(), d.calls.end(), pred); };
+  auto gain_writes = [&](const FakeDeviceState& d) {
+    return count(d, [](const Call& c) { return c.kind == Call::write && c.id == FF_GAIN; });
+  };
+  for (const auto* d : {usb.get(), bt.get(), virt.get()}) {
+    EXPECT_GE(gain_writes(*d), 3) << "at attach, on SIGHUP, after each reopen";
+    EXPECT_GE(count(*d, [](const Call& c) { return c.kind == Call::erase; }), 2) << "reopen, re-attach, shutdown";
+    EXPECT_EQ(d->live(), 0);
+  }
+  const auto bt_rumbles = rumble_uploads(*bt);
+  ASSERT_GT(bt_rumbles.size(), 10u);
+  int kick_plays = 0;
+  for (const auto& p : plays(*bt)) kick_plays += p.id == bt_rumbles.back().id;
+  EXPECT_GT(kick_plays, 10) << "a constant-force pad's kicks: an upload, then a play";
+  EXPECT_GE(count(*usb, [](const Call& c) { return c.result == EINVAL; }), 1);
+  EXPECT_GE(count(*virt, [](const Call& c) { return c.result == ENOSPC; }), 1);
+  EXPECT_EQ(stats.stalls.load(), 1u);
+  EXPECT_EQ(opens["/dev/input/event2"], 4) << "attach, two reopens, the re-attach";
+  EXPECT_EQ(stats.ff.live_effects.load(), 0);
+}
+
 TEST_F(Engine, ReArmedWellBeforeTheReplayLengthRunsOut) {
   auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
@@ -366,9 +480,7 @@ TEST_F(Engine, StallZeroesEveryDeviceWithinFiftyMilliseconds) {
   std::vector<std::pair<int, std::string>> lines;
   auto bt = pad("/dev/input/event1", {FF_RUMBLE}, 16, BUS_BLUETOOTH);
   auto c = pad("/dev/input/event2", {FF_CONSTANT, FF_RUMBLE}, 16, BUS_BLUETOOTH);
-  engine_ = std::make_unique<HapticsEngine>(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
-    return std::make_unique<FakePort>(devices.at(node), node);
-  }, stats, [&](int p, const std::string& m) { lines.emplace_back(p, m); });
+  make_engine([&](int p, const std::string& m) { lines.emplace_back(p, m); });
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
   engine().attach(1, "/dev/input/event2", {{0, kPlane}});
   std::chrono::milliseconds worst{0};
@@ -382,9 +494,13 @@ TEST_F(Engine, StallZeroesEveryDeviceWithinFiftyMilliseconds) {
       if (i % 4 == 0) poll_at(t);
     }
     const Clock::time_point last_beat = t;
-    // The sim thread stalls; the board still says "pushing".
-    for (int i = 0; i < 100; i += 4) {
-      t += 4ms;
+    // The sim thread stalls; the board still says "pushing". Polled every
+    // 4 ms, and when a zero waits for a pacer, when it is due (the thread's
+    // wake-up).
+    for (const Clock::time_point end = t + 100ms; t < end;) {
+      Clock::time_point next = t + 4ms;
+      if (const auto due = engine().next_due(); due && *due > t && *due < next) next = *due;
+      t = next;
       poll_at(t);
     }
     for (const auto& d : {bt, c}) {
@@ -443,12 +559,17 @@ TEST_F(Engine, BoottimeJumpReopensAndSendsANeutralState) {
   poll_at(t0 + 40ms, boot(t0 + 40ms, 500ms));
   EXPECT_EQ(opens["/dev/input/event1"], 1);
   const auto before = d->calls.size();
+  const std::int16_t old_id = engine().device(0)->rumble_id();
   // Slept an hour: BOOTTIME jumped, MONOTONIC did not.
   poll_at(t0 + 44ms, boot(t0 + 44ms, 3600s));
   EXPECT_EQ(opens["/dev/input/event1"], 2);
   EXPECT_EQ(stats.resumes.load(), 1u);
   ASSERT_GT(d->calls.size(), before);
-  const auto& neutral = d->calls[before];
+  EXPECT_EQ(d->calls[before].kind, Call::erase) << "the old effect erased first, paced like any write";
+  EXPECT_EQ(d->calls[before].id, old_id);
+  poll_at(t0 + 60ms);  // the fresh upload waits out the erase's interval
+  ASSERT_GT(d->calls.size(), before + 1);
+  const auto& neutral = d->calls[before + 1];
   EXPECT_EQ(neutral.kind, Call::upload);
   EXPECT_EQ(neutral.effect.id, -1);  // the driver may have lost everything: a fresh effect
   EXPECT_FALSE(neutral.effect.u.rumble.strong_magnitude || neutral.effect.u.rumble.weak_magnitude);
@@ -462,7 +583,8 @@ TEST_F(Engine, LogindResumeAndTheBoottimeJumpReopenOnce) {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()) + 1000s + slept;
   };
   poll_at(t0, boot(t0, 0s));
-  engine().resumed(t0 + 4ms, "logind PrepareForSleep");  // the signal came first
+  clock->advance_to(t0 + 4ms);
+  engine().resumed("logind PrepareForSleep");  // the signal came first
   EXPECT_EQ(opens["/dev/input/event1"], 2);
   poll_at(t0 + 8ms, boot(t0 + 8ms, 600s));  // the same resume, seen by BOOTTIME
   EXPECT_EQ(opens["/dev/input/event1"], 2);
@@ -476,10 +598,7 @@ TEST_F(Engine, LogindResumeAndTheBoottimeJumpReopenOnce) {
 TEST_F(Engine, FirstUploadEnodevIsRetriedUntilReadyWithoutError) {
   std::vector<std::pair<int, std::string>> lines;
   auto d = pad("/dev/input/event1", {FF_RUMBLE}, 16);
-  engine_ = std::make_unique<HapticsEngine>(board, settings, [this](const std::string& node) -> std::unique_ptr<FfPort> {
-    ++opens[node];
-    return std::make_unique<FakePort>(devices.at(node), node);
-  }, stats, [&](int p, const std::string& m) { lines.emplace_back(p, m); });
+  make_engine([&](int p, const std::string& m) { lines.emplace_back(p, m); });
   d->upload_errors = {ENODEV, ENODEV, ENODEV, ENODEV, ENODEV};
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
   for (int i = 0; i < 10; ++i) poll_at(t0 + std::chrono::milliseconds(4 * i));
@@ -516,7 +635,7 @@ TEST_F(Engine, BustypeAndPacingComeFromTheDevice) {
   pad("/dev/input/event1", {FF_RUMBLE}, 16, BUS_BLUETOOTH);
   engine().attach(4, "/dev/input/event1", {{0, kPlane}});
   EXPECT_EQ(stats.slot_bustype[4].load(), BUS_BLUETOOTH);
-  EXPECT_EQ(engine().player(4)->pacer().interval(), 25ms);
+  EXPECT_EQ(engine().device(4)->pacer().interval(), 25ms);
   engine().detach(4);
   EXPECT_EQ(stats.slot_bustype[4].load(), 0);
 }
@@ -546,7 +665,7 @@ TEST_F(Engine, OneEffectConstantDeviceKeepsTheConstant) {
 TEST_F(Engine, NoFfDeviceIsInputOnlyAndNotKeptOpen) {
   auto pad = devices["/dev/input/event1"] = fake_device({}, 0);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   EXPECT_EQ(stats.devices.load(), 1);
   EXPECT_EQ(stats.ff_devices.load(), 0);
   EXPECT_TRUE(pad->calls.empty());
@@ -556,7 +675,7 @@ TEST_F(Engine, NoFfDeviceIsInputOnlyAndNotKeptOpen) {
 
 TEST_F(Engine, OpenFailureIsCountedNotThrown) {
   engine().attach(0, "/dev/input/missing", {{0, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   EXPECT_EQ(stats.open_failures.load(), 1u);
   EXPECT_NE(engine().last_error().find("/dev/input/missing"), std::string::npos);
   EXPECT_EQ(stats.devices.load(), 1);
@@ -583,7 +702,7 @@ TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   auto first = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   engine().attach(3, "/dev/input/event1", {{0, kPlane}});
   board.publish(0, push(1.0, 0));
-  engine().poll(t0);
+  poll_at(t0);
   ASSERT_EQ(constant_uploads(*first).size(), 1u);
 
   first->unplugged = true;
@@ -596,7 +715,7 @@ TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   // Back on another node, same slot: a fresh upload with id −1.
   auto second = devices["/dev/input/event7"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   engine().attach(3, "/dev/input/event7", {{0, kPlane}});
-  engine().poll(t0 + 4ms);  // inside the old interval: a new device is not paced by the old one
+  poll_at(t0 + 4ms);  // inside the old interval: a new device is not paced by the old one
   const auto ups = constant_uploads(*second);
   ASSERT_EQ(ups.size(), 1u);
   EXPECT_EQ(stats.slot_uploads[3].load(), 2u) << "the slot counts both devices' uploads";
@@ -609,13 +728,13 @@ TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
 TEST_F(Engine, UnplugSeenByAnIoctlFirstStopsTraffic) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   pad->unplugged = true;
   board.publish(0, push(1.0, 0));
-  engine().poll(t0 + 30ms);  // ENODEV
+  poll_at(t0 + 30ms);  // ENODEV
   const auto n = pad->calls.size();
   board.publish(0, push(-1.0, 0));
-  engine().poll(t0 + 60ms);
+  poll_at(t0 + 60ms);
   EXPECT_EQ(pad->calls.size(), n);
   engine().detach(0);
   EXPECT_EQ(stats.ff.live_effects.load(), 0);
@@ -626,17 +745,17 @@ TEST_F(Engine, EnodevWithoutAnUnplugReopensTheDevice) {
   // engine reopens it.
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   pad->upload_errors = {ENODEV};
   board.publish(0, push(1.0, 0));
-  engine().poll(t0 + 20ms);  // the play (a write) goes first
-  engine().poll(t0 + 40ms);  // ENODEV
+  poll_at(t0 + 20ms);  // the play (a write) goes first
+  poll_at(t0 + 40ms);  // ENODEV
   ASSERT_EQ(pad->of(Call::upload).size(), 2u);
   EXPECT_EQ(pad->of(Call::upload)[1].result, ENODEV);
-  engine().poll(t0 + 100ms);
-  engine().poll(t0 + 300ms);  // < 250 ms since ENODEV was first seen at 100 ms
+  poll_at(t0 + 100ms);
+  poll_at(t0 + 300ms);  // < 250 ms since ENODEV was first seen at 100 ms
   EXPECT_EQ(opens["/dev/input/event1"], 1);
-  engine().poll(t0 + 360ms);
+  poll_at(t0 + 360ms);
   EXPECT_EQ(opens["/dev/input/event1"], 2);
   const auto ups = constant_uploads(*pad);
   ASSERT_EQ(ups.size(), 3u);
@@ -652,7 +771,7 @@ TEST_F(Engine, AReallyDeadNodeIsReopenedOnlyAFewTimes) {
   pad->unplugged = true;
   for (int i = 0; i < 400; ++i) {
     board.publish(0, push(i % 2 ? 1.0 : -1.0, 0));
-    engine().poll(t0 + std::chrono::milliseconds(100 * i));
+    poll_at(t0 + std::chrono::milliseconds(100 * i));
   }
   EXPECT_LE(opens["/dev/input/event1"], 1 + 5);
   EXPECT_GE(opens["/dev/input/event1"], 2);
@@ -666,7 +785,7 @@ TEST_F(Engine, TwoToolsOnOnePadAddUpInItsPlane) {
   engine().attach(0, "/dev/input/event1", {{0, kPlane}, {1, kPlane}});
   board.publish(0, push(0.5, 0));
   board.publish(1, push(0.5, 0));
-  engine().poll(t0);
+  poll_at(t0);
   const auto ups = constant_uploads(*pad);
   ASSERT_EQ(ups.size(), 1u);
   EXPECT_EQ(ups[0].effect.u.constant.level, static_cast<int>(0.55 * 32767));  // 1 N of 2
@@ -678,10 +797,10 @@ TEST_F(Engine, ShutdownStopsAndErasesEveryDevice) {
   auto b = devices["/dev/input/event2"] = fake_device({FF_RUMBLE}, 4);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
   engine().attach(1, "/dev/input/event2", {{1, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   board.publish(0, push(1.0, 0, true, 0.01));
   board.publish(1, push(1.0, 0, true, 0.01));
-  for (int i = 1; i < 20; ++i) engine().poll(t0 + std::chrono::milliseconds(12 * i));
+  for (int i = 1; i < 20; ++i) poll_at(t0 + std::chrono::milliseconds(12 * i));
   EXPECT_EQ(a->live(), 2);
   EXPECT_EQ(b->live(), 1);
   engine().shutdown();
@@ -697,9 +816,9 @@ TEST_F(Engine, ShutdownStopsAndErasesEveryDevice) {
 TEST_F(Engine, ConfigureChangesGainAndPacing) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_GAIN}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);  // the constant's id first
+  poll_at(t0);  // the constant's id first
   EXPECT_TRUE(pad->of(Call::write).empty());
-  engine().poll(t0 + 10ms);  // then FF_GAIN: a write like any other, paced
+  poll_at(t0 + 10ms);  // then FF_GAIN: a write like any other, paced
   ASSERT_EQ(pad->of(Call::write).size(), 1u);
   EXPECT_EQ(pad->of(Call::write)[0].id, FF_GAIN);
   HapticsSettings s = settings;
@@ -712,20 +831,20 @@ TEST_F(Engine, ConfigureChangesGainAndPacing) {
     return false;
   };
   EXPECT_FALSE(gain_written()) << "paced: not inside the interval";
-  engine().poll(t0 + 50ms);
+  poll_at(t0 + 50ms);
   EXPECT_FALSE(gain_written()) << "100 ms now";
-  engine().poll(t0 + 110ms);
+  poll_at(t0 + 110ms);
   EXPECT_TRUE(gain_written());
-  engine().poll(t0 + 150ms);
+  poll_at(t0 + 150ms);
   EXPECT_EQ(plays(*pad).size(), 0u);
-  engine().poll(t0 + 210ms);
+  poll_at(t0 + 210ms);
   EXPECT_EQ(plays(*pad).size(), 1u);
 }
 
 TEST_F(Engine, DisablingHapticsErasesAndClosesDevices) {
   auto pad = devices["/dev/input/event1"] = fake_device({FF_CONSTANT}, 16);
   engine().attach(0, "/dev/input/event1", {{0, kPlane}});
-  engine().poll(t0);
+  poll_at(t0);
   HapticsSettings s = settings;
   s.enabled = false;
   engine().configure(s);
@@ -734,7 +853,10 @@ TEST_F(Engine, DisablingHapticsErasesAndClosesDevices) {
   EXPECT_EQ(stats.ff_devices.load(), 0);
   s.enabled = true;
   engine().configure(s);
-  engine().poll(t0 + 10ms);  // a reopened device keeps its transport's pacing
+  const auto erased_at = pad->of(Call::erase).back().end;
+  poll_at(erased_at + 9ms);  // a reopened device keeps its pacer: the erase was a write
+  EXPECT_EQ(pad->live(), 0);
+  poll_at(erased_at + 10ms);
   EXPECT_EQ(pad->live(), 1);
   EXPECT_EQ(opens["/dev/input/event1"], 2);
 }

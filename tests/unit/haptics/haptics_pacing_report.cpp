@@ -1,11 +1,18 @@
 // Prints what the transport pacing and the stall guard do in real time: the
-// real HapticsThread drives fake USB, Bluetooth and virtual-bus pads (real
-// time stamps on every call) through a simulated sculpt whose force changes
-// every 1 ms tick with an onset every 300 ms, then the sim thread stalls
-// repeatedly and the time from the last beat to zero on every device is
-// measured.
+// real HapticsThread drives fake USB, Bluetooth and virtual-bus pads through
+// a simulated sculpt whose force changes every 1 ms tick with an onset every
+// 300 ms, then the sim thread stalls repeatedly.
 //
-//   build/tests/unit/haptics/haptics_pacing_report [seconds=10] [stalls=20]
+// Every call the kernel would receive is recorded (uploads, plays, stops,
+// FF_GAIN, erases) with the time it started and the time it returned; each
+// call can be made to take `write_ms` (a uinput pad's process answering, a
+// driver's transport). The interval a pad is promised is the one between the
+// kernel's writes: from one call's return to the next call's start. Printed
+// per device: the minimum, p50 and p99 of those intervals against the bus's
+// floor, and the time from the sim thread's last beat to the return of the
+// zero write.
+//
+//   build/tests/unit/haptics/haptics_pacing_report [seconds=10] [stalls=20] [write_ms=0]
 #include <linux/input.h>
 
 #include <algorithm>
@@ -28,42 +35,53 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-struct Report {
-  Clock::time_point at;
-  bool zero;  // an upload that zeroes the effect
+struct Write {
+  Clock::time_point start;
+  Clock::time_point end;
+  bool zero;  // an upload that zeroes the main effect
 };
 
-// The fake device with a real clock, and a log readable while the thread runs.
+// The fake device on the real clock, each call taking `cost` (slept), and a
+// log readable while the thread runs.
 class TimedPort final : public FfPort {
  public:
-  TimedPort(std::shared_ptr<testing::FakeDeviceState> s, std::string node, std::mutex& m, std::vector<Report>& log)
-      : s_(s), inner_(std::move(s), std::move(node)), m_(m), log_(log) {}
+  TimedPort(std::shared_ptr<testing::FakeDeviceState> s, std::string node, Clock::duration cost, std::mutex& m,
+            std::vector<Write>& log)
+      : inner_(std::move(s), std::move(node)), cost_(cost), m_(m), log_(log) {}
   FfCaps caps() override { return inner_.caps(); }
   DeviceIdentity identity() override { return inner_.identity(); }
   int upload(ff_effect& e) override {
     const bool zero = e.type == FF_CONSTANT ? e.u.constant.level == 0
                                             : (!e.u.rumble.strong_magnitude && !e.u.rumble.weak_magnitude);
     const bool kick = e.type == FF_RUMBLE && e.replay.length < 1000;  // a constant device's own kick effect
-    record(!kick && zero);
-    return inner_.upload(e);
+    return timed(!kick && zero, [&] { return inner_.upload(e); });
   }
-  int erase(std::int16_t id) override { return inner_.erase(id); }
+  int erase(std::int16_t id) override {
+    return timed(false, [&] { return inner_.erase(id); });
+  }
   int write_ff(std::uint16_t code, std::int32_t value) override {
-    if (code == FF_GAIN || value != 0) record(false);  // FF_GAIN too: memless drivers send a report
-    return inner_.write_ff(code, value);
+    return timed(false, [&] { return inner_.write_ff(code, value); });
   }
   const std::string& node() const override { return inner_.node(); }
 
  private:
-  void record(bool zero) {
+  template <class Call>
+  int timed(bool zero, Call call) {
+    const auto start = Clock::now();
+    const int r = call();
+    if (cost_.count() > 0) std::this_thread::sleep_for(cost_);
+    const auto end = Clock::now();
     std::lock_guard lock(m_);
-    log_.push_back({Clock::now(), zero});
+    log_.push_back({start, end, zero});
+    return r;
   }
-  std::shared_ptr<testing::FakeDeviceState> s_;
   testing::FakePort inner_;
+  Clock::duration cost_;
   std::mutex& m_;
-  std::vector<Report>& log_;
+  std::vector<Write>& log_;
 };
+
+double ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -86,6 +104,12 @@ Felt pressing(double f, bool onset) {
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 10.0;
   const int stalls = argc > 2 ? std::atoi(argv[2]) : 20;
+  const double write_ms = argc > 3 ? std::atof(argv[3]) : 0.0;
+  if (!(seconds > 0) || stalls < 0 || !(write_ms >= 0)) {
+    std::fprintf(stderr, "usage: %s [seconds > 0] [stalls >= 0] [write_ms >= 0]\n", argv[0]);
+    return 2;
+  }
+  const auto cost = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(write_ms));
   struct Pad {
     std::string node;
     std::uint16_t bus;
@@ -97,7 +121,7 @@ int main(int argc, char** argv) {
                                  {"/dev/input/btc", BUS_BLUETOOTH, true, "Bluetooth constant"},
                                  {"/dev/input/virt", BUS_VIRTUAL, true, "virtual (uinput)"}};
   std::mutex m;
-  std::map<std::string, std::vector<Report>> logs;
+  std::map<std::string, std::vector<Write>> logs;
   std::map<std::string, std::shared_ptr<testing::FakeDeviceState>> states;
   for (const auto& p : pads) {
     auto s = p.constant ? testing::fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16)
@@ -109,7 +133,7 @@ int main(int argc, char** argv) {
   FeedbackBoard board(1);
   HapticsSettings settings;  // the defaults: 4 ms polls, 10/25/10 ms pacing, 15 ms stall
   HapticsThread thread(board, settings, [&](const std::string& node) -> std::unique_ptr<FfPort> {
-    return std::make_unique<TimedPort>(states.at(node), node, m, logs.at(node));
+    return std::make_unique<TimedPort>(states.at(node), node, cost, m, logs.at(node));
   });
   thread.start();
   for (std::size_t i = 0; i < pads.size(); ++i) thread.attach(static_cast<int>(i), pads[i].node, {{0, StickPlane{}}});
@@ -130,23 +154,6 @@ int main(int argc, char** argv) {
   int tick = 0;
   tick_for(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds)), tick);
 
-  std::printf("update intervals over a %.0f s sculpt (force changing every 1 ms tick, an onset every 300 ms):\n",
-              seconds);
-  std::printf("%-22s %8s %9s %9s %9s %9s\n", "device", "writes", "min ms", "p50 ms", "p99 ms", "floor ms");
-  for (const auto& p : pads) {
-    std::vector<double> gaps;
-    {
-      std::lock_guard lock(m);
-      const auto& l = logs[p.node];
-      for (std::size_t i = 1; i < l.size(); ++i)
-        gaps.push_back(std::chrono::duration<double, std::milli>(l[i].at - l[i - 1].at).count());
-    }
-    std::printf("%-22s %8zu %9.2f %9.2f %9.2f %9lld\n", p.what, gaps.size() + 1,
-                gaps.empty() ? 0 : *std::min_element(gaps.begin(), gaps.end()), percentile(gaps, 0.5),
-                percentile(gaps, 0.99),
-                static_cast<long long>(interval_for_bus(p.bus, settings.pacing).count()));
-  }
-
   // Stalls: the sim thread stops beating while the board says "pressing".
   std::map<std::string, std::vector<double>> to_zero;
   for (int s = 0; s < stalls; ++s) {
@@ -155,14 +162,34 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(120ms);
     std::lock_guard lock(m);
     for (const auto& p : pads)
-      for (const auto& r : logs[p.node])
-        if (r.at > last_beat && r.zero) {
-          to_zero[p.node].push_back(std::chrono::duration<double, std::milli>(r.at - last_beat).count());
+      for (const auto& w : logs[p.node])
+        if (w.start > last_beat && w.zero) {
+          to_zero[p.node].push_back(ms(w.end - last_beat));
           break;
         }
   }
-  std::printf("\nstall to zero (%d stalls; budget 50 ms = stall_after 15 + poll 4 + pacing <= 25, + timer slack):\n",
-              stalls);
+  thread.stop();  // shutdown's erases are writes too
+
+  std::printf(
+      "kernel-side intervals (one write's return to the next one's start, every upload, play, stop,\n"
+      "FF_GAIN and erase) over a %.0f s sculpt (force changing every 1 ms tick, an onset every 300 ms),\n"
+      "%d stalls and shutdown; each write taking %.1f ms:\n",
+      seconds, stalls, write_ms);
+  std::printf("%-22s %8s %9s %9s %9s %9s %7s\n", "device", "writes", "min ms", "p50 ms", "p99 ms", "floor ms", "short");
+  for (const auto& p : pads) {
+    const auto floor = interval_for_bus(p.bus, settings.pacing);
+    std::vector<double> gaps;
+    int short_gaps = 0;
+    const auto& l = logs[p.node];  // the thread has stopped: no lock needed
+    for (std::size_t i = 1; i < l.size(); ++i) {
+      gaps.push_back(ms(l[i].start - l[i - 1].end));
+      short_gaps += l[i].start - l[i - 1].end < floor;
+    }
+    std::printf("%-22s %8zu %9.2f %9.2f %9.2f %9lld %7d\n", p.what, l.size(),
+                gaps.empty() ? 0 : *std::min_element(gaps.begin(), gaps.end()), percentile(gaps, 0.5),
+                percentile(gaps, 0.99), static_cast<long long>(floor.count()), short_gaps);
+  }
+  std::printf("\nstall to zero (last beat to the zero write's return; %d stalls; budget: docs/haptics.md):\n", stalls);
   std::printf("%-22s %8s %9s %9s\n", "device", "zeroed", "p50 ms", "max ms");
   for (const auto& p : pads) {
     const auto& v = to_zero[p.node];
@@ -170,6 +197,5 @@ int main(int argc, char** argv) {
                 v.empty() ? 0 : *std::max_element(v.begin(), v.end()));
   }
   std::printf("stalls seen by the engine: %llu\n", static_cast<unsigned long long>(thread.stats().stalls.load()));
-  thread.stop();
   return 0;
 }

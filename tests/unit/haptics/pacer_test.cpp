@@ -1,9 +1,11 @@
 // Transport pacing: the interval per bus, and a WritePacer that lets the
-// first write out at once, then no two writes closer than the interval.
+// first write out at once, then no two writes closer than the interval; a
+// writer outside the poll waits on the time source.
 #include <gtest/gtest.h>
 
 #include <linux/input.h>
 
+#include "fake_port.hpp"
 #include "haptics/pacer.hpp"
 
 namespace sculpt::haptics {
@@ -36,6 +38,23 @@ TEST(WritePacer, FirstAtOnceThenIntervalApart) {
   p.set_interval(25ms);
   EXPECT_FALSE(p.ready(t0 + 36ms));
   EXPECT_TRUE(p.ready(t0 + 37ms));
+}
+
+TEST(WritePacer, WaitSleepsUntilTheIntervalHasPassedAndWritesAreCounted) {
+  testing::FakeClock clock;
+  WritePacer p(25ms);
+  p.wait(clock);  // the first write: no wait
+  EXPECT_EQ(clock.sleeps(), 0);
+  clock.advance(3ms);  // the write took 3 ms
+  p.wrote(clock.now());
+  EXPECT_EQ(p.writes(), 1u);
+  p.wait(clock);
+  EXPECT_EQ(clock.now(), Clock::time_point{} + 28ms) << "25 ms after the write returned";
+  p.wrote(clock.now());
+  clock.advance(40ms);
+  p.wait(clock);
+  EXPECT_EQ(clock.sleeps(), 1) << "no wait once the interval has passed";
+  EXPECT_EQ(p.writes(), 2u);
 }
 
 }  // namespace

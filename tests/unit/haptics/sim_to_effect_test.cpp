@@ -25,9 +25,10 @@ struct Rig {
   Rig() : world(sim::SimSettings{}, 1), board(1) {
     world.add_body(sim::make_icosphere(0.1f, 4), sim::Material{});
     pad = fake_device({FF_CONSTANT, FF_RUMBLE, FF_GAIN}, 16);
-    engine = std::make_unique<HapticsEngine>(board, HapticsSettings{}, [this](const std::string& node) {
-      return std::unique_ptr<FfPort>(std::make_unique<FakePort>(pad, node));
-    }, stats);
+    engine = std::make_unique<HapticsEngine>(
+        board, HapticsSettings{},
+        [this](const std::string& node) { return std::unique_ptr<FfPort>(std::make_unique<FakePort>(pad, node)); },
+        stats, LogSink{}, *pad->clock);
     // The stick's x drives the tool along sim x, its y (down = towards the user) along sim z.
     engine->attach(0, "/dev/input/event0", {{0, StickPlane{0, 2, 1.0, 1.0}}});
   }
@@ -37,7 +38,10 @@ struct Rig {
     world.step({&tool, 1});
     const sim::ToolFeedback& f = world.feedback()[0];
     board.publish(0, {f.force, f.contacts, f.contacts > 0, f.onset, f.onset_impulse});
-    if (n++ % 4 == 0) engine->poll(Clock::time_point{} + n * 1ms);
+    if (n++ % 4 == 0) {
+      pad->clock->advance_to(Clock::time_point{} + n * 1ms);
+      engine->poll();
+    }
   }
   std::vector<Call> uploads(std::uint16_t type) const {
     std::vector<Call> out;

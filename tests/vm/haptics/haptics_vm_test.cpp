@@ -136,10 +136,10 @@ TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
     EXPECT_EQ(constants[i].retval, 0);
   }
   EXPECT_EQ(haptics.bustype(0), BUS_USB);
-  // Paced: no more than one write per 20 ms USB interval (+ the first).
+  // Paced: no more than one write per 20 ms USB interval over the time
+  // measured (+ the first).
   const auto intervals = elapsed / 20ms;
   EXPECT_LE(static_cast<long>(constants.size()), static_cast<long>(intervals) + 2);
-  EXPECT_LT(constants.size(), 10000u / 4);
   EXPECT_TRUE(played(log, id, 1));
   EXPECT_EQ(free_effect_ids(joy.event_node()), 15);
   EXPECT_EQ(haptics.stats().ff.live_effects.load(), 1);
