@@ -59,7 +59,7 @@ class SessionImpl final : public proto::Session::Server {
     });
   }
   kj::Promise<void> snapshot(SnapshotContext context) override {
-    return answer([&] { server_.fill_snapshot_now(context.getResults().initSnapshot()); });
+    return answer([&] { server_.fill_snapshot_now(context.getResults(server_.snapshot_size_hint()).initSnapshot()); });
   }
   kj::Promise<void> subscribe(SubscribeContext context) override {
     if (!server_.admit(client_)) return closing();

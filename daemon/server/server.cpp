@@ -293,7 +293,9 @@ void Server::drop(std::uint64_t id, const std::string& why) {
   for (auto& [sid, s] : streams_)
     if (s->client == id) s->dead = true;
   clients_.erase(it);  // closes the socket; its calls and their replies go with it
-  ::malloc_trim(0);     // a queue of replies can be hundreds of MB: give it back
+  // A queue of replies can be hundreds of MB: give it back, in a turn of
+  // the loop of its own (after the next poll for I/O, as a message is read).
+  tasks_->add(io_.provider->getTimer().afterDelay(0 * kj::NANOSECONDS).then([] { ::malloc_trim(0); }));
 }
 
 std::uint64_t Server::oldest_silent(std::int64_t connected_before_ns) const {
@@ -647,7 +649,7 @@ kj::Promise<void> Server::track_send(std::uint64_t id, kj::Promise<void> sent) {
 }
 
 void Server::send_snapshot(Stream& s) {
-  auto req = s.viewer.snapshotRequest();
+  auto req = s.viewer.snapshotRequest(snapshot_size_hint());
   auto snap = req.initSnapshot();
   server::fill_snapshot(snap, scene_, *reader_);
   s.baseline.resize(reader_->body_count());

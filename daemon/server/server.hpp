@@ -139,6 +139,9 @@ class Server {
   DaemonControl& control() { return control_; }
   void fill_status(proto::Stats::Builder out);
   void fill_snapshot_now(proto::Snapshot::Builder out);
+  // A message big enough for the loaded scene's snapshot: built in one
+  // allocation, not a dozen growing ones (each zeroed).
+  capnp::MessageSize snapshot_size_hint() const { return {snapshot_bytes_ / sizeof(capnp::word) + 1024, 0}; }
   std::uint64_t add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client);
   void remove_stream(std::uint64_t id);
   void set_rate(std::uint64_t id, float fps);

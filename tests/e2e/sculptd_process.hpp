@@ -41,7 +41,8 @@ inline std::string temp_path(const std::string& name) {
 
 class Sculptd {
  public:
-  explicit Sculptd(std::vector<std::string> args) {
+  // `binary`: another sculptd than this build's (a benchmark comparing two).
+  explicit Sculptd(std::vector<std::string> args, const std::string& binary = SCULPTD_BIN) {
     // Never the default socket, where a real service may listen (tests run
     // on the host wherever /dev/uinput works).
     if (std::find(args.begin(), args.end(), "--socket") == args.end())
@@ -50,7 +51,7 @@ class Sculptd {
     // that means to save passes --state-dir (or --open, --fresh).
     const auto has = [&args](const char* flag) { return std::find(args.begin(), args.end(), flag) != args.end(); };
     if (!has("--state-dir") && !has("--no-store") && !has("--open") && !has("--fresh")) args.push_back("--no-store");
-    args.insert(args.begin(), SCULPTD_BIN);
+    args.insert(args.begin(), binary);
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe2");
     posix_spawn_file_actions_t fa;
@@ -64,7 +65,7 @@ class Sculptd {
     ::close(fds[1]);
     if (rc != 0) {
       ::close(fds[0]);
-      throw std::runtime_error(std::string("posix_spawn ") + SCULPTD_BIN + ": " + std::to_string(rc));
+      throw std::runtime_error("posix_spawn " + binary + ": " + std::to_string(rc));
     }
     reader_ = std::thread([this, fd = fds[0]] { read_log(fd); });
   }

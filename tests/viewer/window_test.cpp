@@ -99,16 +99,29 @@ TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
     }
     return {};
   };
+  // A screenshot is read once the viewer says it wrote it (the file appears
+  // before it is complete).
+  const auto written = [&](const std::filesystem::path& f) { return view.wait_for_log("screenshot " + f.string(), 30s); };
   const std::filesystem::path first = new_shot({});
   ASSERT_FALSE(first.empty()) << view.log();
-  std::this_thread::sleep_for(1s);   // let any second press land before the toggle
-  ASSERT_TRUE(send_key(display_, "sculpt-view", "w"));
-  std::this_thread::sleep_for(1s);
-  const std::filesystem::path second = new_shot(files());
-  ASSERT_FALSE(second.empty()) << view.log();
+  ASSERT_TRUE(written(first)) << view.log();
   const view::Image plain = view::read_png(first);
-  const view::Image wire = view::read_png(second);
   EXPECT_GT(mesh_colour_fraction(plain), 0.01);
+  ASSERT_TRUE(send_key(display_, "sculpt-view", "w"));
+  // An 's' pressed before the 'w' may still land after `first`: its
+  // screenshot is plain. Screenshots until one shows the wireframe.
+  std::filesystem::path second;
+  std::vector<std::filesystem::path> seen = files();
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (second.empty() && std::chrono::steady_clock::now() < deadline) {
+    const std::filesystem::path shot = new_shot(seen);
+    if (shot.empty()) break;
+    seen.push_back(shot);
+    ASSERT_TRUE(written(shot)) << view.log();
+    if (compare(plain, view::read_png(shot)).bad_fraction > 0.01) second = shot;
+  }
+  ASSERT_FALSE(second.empty()) << "'w' did not change the picture: " << view.log();
+  const view::Image wire = view::read_png(second);
   EXPECT_GT(compare(plain, wire).bad_fraction, 0.01) << "'w' did not change the picture";
   EXPECT_NE(view.log().find("screenshot " + shots), std::string::npos) << view.log();
   view.signal(SIGTERM);

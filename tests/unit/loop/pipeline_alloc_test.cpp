@@ -61,19 +61,25 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   b.add_axis(y);
   b.tool_mask = 1;
   ASSERT_TRUE(stages.ring().try_push(input::InputMessage::attach(0, b)));
+  // Full deflection down from the first tick: the tool reaches the ball
+  // within the run however late this thread sends the frames that follow.
+  const auto full_down = [] {
+    input::InputFrame f;
+    f.slot = 0;
+    f.push({EV_ABS, ABS_Y, 511});
+    f.push({EV_SYN, SYN_REPORT, 0});
+    return input::InputMessage::of_frame(f);
+  };
+  ASSERT_TRUE(stages.ring().try_push(full_down()));
 
   loop::SimThreadOptions o;
   o.max_ticks = 600;
   loop::SimThread thread(world, marking, 1, o);
   support::reset_counted_allocations();
   thread.start();
-  // Frames keep arriving while it runs: full deflection down.
+  // Frames keep arriving while it runs.
   for (int i = 0; i < 200 && !thread.finished(); ++i) {
-    input::InputFrame f;
-    f.slot = 0;
-    f.push({EV_ABS, ABS_Y, 511});
-    f.push({EV_SYN, SYN_REPORT, 0});
-    stages.ring().try_push(input::InputMessage::of_frame(f));
+    stages.ring().try_push(full_down());
     std::this_thread::sleep_for(1ms);
     if (i == 100) {
       EXPECT_TRUE(thread.request_pause(true));

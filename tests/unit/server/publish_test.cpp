@@ -136,21 +136,32 @@ TEST(Published, PublishingAllocatesNothingOnTheSimThreadWhileAReaderSyncs) {
   b.add_axis(y);
   b.tool_mask = 1;
   ASSERT_TRUE(stages.ring().try_push(input::InputMessage::attach(0, b)));
+  // Full deflection down from the first tick: the tool reaches the ball
+  // within the run however late this thread sends the frames that follow.
+  const auto full_down = [] {
+    input::InputFrame f;
+    f.slot = 0;
+    f.push({EV_ABS, ABS_Y, 511});
+    f.push({EV_SYN, SYN_REPORT, 0});
+    return input::InputMessage::of_frame(f);
+  };
+  ASSERT_TRUE(stages.ring().try_push(full_down()));
 
   loop::SimThreadOptions o;
   o.max_ticks = 600;
   loop::SimThread thread(world, marking, 1, o);
   PublishedReader reader(state);
   support::reset_counted_allocations();
+  // It starts paused (commands too: no allocation) and ticks once this
+  // thread has synced a few times: the reader syncs while it publishes,
+  // however late this thread runs.
+  ASSERT_TRUE(thread.request_pause(true));
   thread.start();
   std::uint64_t syncs = 0;
   for (int i = 0; i < 200 && !thread.finished(); ++i) {
-    input::InputFrame f;
-    f.slot = 0;
-    f.push({EV_ABS, ABS_Y, 511});
-    f.push({EV_SYN, SYN_REPORT, 0});
-    stages.ring().try_push(input::InputMessage::of_frame(f));
-    if (i == 100) thread.request_pause(true);   // commands too: no allocation
+    stages.ring().try_push(full_down());
+    if (i == 20) thread.request_pause(false);
+    if (i == 100) thread.request_pause(true);
     if (i == 120) thread.request_pause(false);
     reader.sync();
     ++syncs;

@@ -247,7 +247,8 @@ TEST(Replay, ShippedSessionsPlay) {
 TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
   const auto file = temp("recorded_vm.jsonl");
   std::filesystem::remove(file);
-  ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", "--duration", "1.5", file.string()});
+  // No --duration: it records until SIGINT, sent once the moves are made.
+  ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", file.string()});
   support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("vm recorded pad"));
   auto line = record.line(vmtest::scaled(std::chrono::milliseconds(10000)));
   while (line && line->rfind("recording", 0) != 0) line = record.line();
@@ -256,6 +257,8 @@ TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // spacing between moves, not a wait for a fact
   pad.press(BTN_SOUTH);
   pad.move_axis(ABS_RX, -333);
+  // The events are in the device's queue: what is queued when it stops is recorded too.
+  ::kill(record.pid(), SIGINT);
   const auto status = record.wait(vmtest::scaled(std::chrono::milliseconds(20000)));
   ASSERT_TRUE(status.has_value());
   ASSERT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << record.output();
