@@ -50,7 +50,7 @@ class EvdevClient {
 
   // The next input event, waiting up to `timeout`; nullopt on timeout.
   // Throws std::system_error with the errno (ENODEV once unplugged).
-  std::optional<input_event> next_event(std::chrono::milliseconds timeout = std::chrono::milliseconds(5000));
+  std::optional<input_event> next_event(std::chrono::milliseconds timeout = std::chrono::milliseconds(20000));
 
   // Closes the fd; returns close()'s errno (0 on success). The kernel erases
   // this client's effects while closing.

@@ -120,7 +120,7 @@ class UhidPad {
   // Waits until pred(outputs) holds; false after the timeout (scaled by
   // SCULPT_VM_SLOWDOWN). pred runs under the lock: keep it cheap.
   bool wait_for(const std::function<bool(const std::vector<OutputReport>&)>& pred,
-                std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const;
+                std::chrono::milliseconds timeout = std::chrono::milliseconds(20000)) const;
 
   // The motor reports among outputs (spec.motors), in order.
   struct MotorReport {
@@ -131,7 +131,7 @@ class UhidPad {
   std::optional<Motors> last_motors() const;
   // Waits until the latest motor report satisfies pred.
   bool wait_for_motors(const std::function<bool(const Motors&)>& pred,
-                       std::chrono::milliseconds timeout = std::chrono::milliseconds(5000)) const;
+                       std::chrono::milliseconds timeout = std::chrono::milliseconds(20000)) const;
 
  private:
   void run();
