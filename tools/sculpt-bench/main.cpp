@@ -34,10 +34,10 @@ struct Options {
 };
 
 // The command to run once parsed: registered with each command.
-using Run = std::function<int()>;
+using Command = std::function<int()>;  // runs a subcommand, returns its exit status
 
-std::vector<std::pair<CLI::App*, Run>> add_commands(CLI::App& app, Options& o) {
-  std::vector<std::pair<CLI::App*, Run>> commands;
+std::vector<std::pair<CLI::App*, Command>> add_commands(CLI::App& app, Options& o) {
+  std::vector<std::pair<CLI::App*, Command>> commands;
   ThroughputOptions& t = o.throughput;
   CLI::App* c = app.add_subcommand("throughput", "steps per second of one mesh under a pressing tool, fast vs baseline");
   c->add_option("--mesh", t.mesh, "builtin:icosphere[:N] | builtin:torus[:R:r:rings:sides] | builtin:box[:cells] | FILE")
