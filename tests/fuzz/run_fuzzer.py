@@ -30,7 +30,8 @@ def main():
                 if os.path.isfile(src):
                     shutil.copyfile(src, os.path.join(corpus, f'{n:04d}-{name}'))
                     n += 1
-        cmd = [args.fuzzer, f'-max_total_time={args.seconds}', '-timeout=20', '-rss_limit_mb=4096',
+        # -error_exitcode=1: libFuzzer's own default, 77, is what meson reads as "skipped".
+        cmd = [args.fuzzer, f'-max_total_time={args.seconds}', '-timeout=20', '-rss_limit_mb=4096', '-error_exitcode=1',
                '-max_len=65536', f'-artifact_prefix={artifacts}', '-print_final_stats=1', corpus]
         print('seed files:', n)
         print('running:', ' '.join(cmd), flush=True)

@@ -197,6 +197,12 @@ INSTANTIATE_TEST_SUITE_P(
                  "s.toml:2: [[tool]] #1 position: must be an array of 3 numbers, like [0.0, 0.1, 0.0]"},
         BadScene{"syntax", "[simulation\nrate_hz = 1\n",
                  "s.toml:1: not valid TOML: Error while parsing table header: expected ']', saw '\\n'"},
+        // Two defects of toml++ 3.3.0 that malformed input reaches (daemon/toml/toml.cpp).
+        BadScene{"triple_bracket", "[[[mesh]]]\nfile = \"a.obj\"\n",
+                 "s.toml: not valid TOML: the TOML parser cannot go on from here (its check "
+                 "`is_bare_key_character(*cp) || is_string_delimiter(*cp)` fails)"},
+        BadScene{"non_ascii_after_value", "[simulation]\nrate_hz = 1000.0\u00e2\n",
+                 "s.toml:2: not valid TOML: Error while parsing floating-point: expected decimal digit, saw '\u00e2'"},
         BadScene{"mesh_not_array", "[mesh]\nfile = \"a.obj\"\n",
                  "s.toml:1: 'mesh' must be a list of tables: write [[mesh]] before each one, not [mesh]"},
         BadScene{"no_file", "[[mesh]]\nname = \"x\"\n",
