@@ -240,7 +240,9 @@ TEST(Keeper, AJournalCutAtEveryFrameRecoversAPrefixExactly) {
   ASSERT_GT(wal, 32u);
   // Every frame of the last 30, every 8th before (sanitized: 8, 32): at its boundary, one byte
   // in, in its header, just past it, mid-page (a cut byte by byte, inside a
-  // frame, is the store test's: tests/unit/store/crash_test.cpp).
+  // frame, is the store test's: tests/unit/store/crash_test.cpp). Sanitized,
+  // at the boundary and mid-page only: SQLite drops a partial frame whole, so
+  // every cut inside one recovers the same prefix the same way.
   const std::uintmax_t page = 4096, frame = page + 24, frames = (wal - 32) / frame;
   std::vector<std::uintmax_t> cuts;
   const std::uintmax_t last_frames = short_run() ? 8 : 30, every = short_run() ? 32 : 8;
@@ -248,7 +250,7 @@ TEST(Keeper, AJournalCutAtEveryFrameRecoversAPrefixExactly) {
     if (k + last_frames < frames && k % every != 0) continue;
     const std::uintmax_t at = 32 + k * frame;
     for (std::uintmax_t d : {0, 1, 23, 24, 25, 2000})
-      if (at + d <= wal) cuts.push_back(at + d);
+      if (at + d <= wal && (!short_run() || d == 0 || d == 2000)) cuts.push_back(at + d);
   }
   std::uint64_t last = 0;
   for (std::uintmax_t cut : cuts) {

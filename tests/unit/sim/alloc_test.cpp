@@ -21,10 +21,10 @@ TEST(RealTime, StepDoesNotAllocate) {
     w.add_body(make_icosphere(0.1f, 4), clay);
     w.add_body(make_torus(0.1f, 0.03f, 32, 16), Material{});
     // Elastic and sagging, so every block steps through the ring each tick (on
-    // AVX2, Verlet): 164 blocks, springs past its reach, far records.
+    // AVX2, Verlet): 164 blocks (sanitized 112), springs past its reach, far records.
     Material sagging;
     sagging.gravity = true;
-    w.add_body(make_torus(0.3f, 0.05f, 128, 164), sagging);
+    w.add_body(test::far_spring_torus(), sagging);
     Tool tools[2];
     tools[0].radius = 0.02;
     tools[1].radius = 0.01;
@@ -71,7 +71,7 @@ TEST(RealTime, RecordingEditsAndSwappingImagesDoNotAllocate) {
   Material clay;
   clay.plastic = true;
   w.add_body(make_icosphere(0.1f, 4), clay);
-  w.add_body(make_torus(0.3f, 0.05f, 128, 164), Material{});  // the ring path, far springs
+  w.add_body(test::far_spring_torus(), Material{});  // the ring path, far springs
   ChecksumSink sink;
   w.set_edit_sink(&sink);
   std::vector<std::byte> images[2];

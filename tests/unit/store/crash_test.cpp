@@ -40,6 +40,18 @@ fs::path scratch_base() {
   return fs::temp_directory_path();
 }
 
+// The sanitized build (ASan + UBSan) checks the store's own code; SQLite is
+// the system's, uninstrumented, and takes a frame whole or not at all, so
+// every cut inside one page takes the same path through the store. There the
+// cuts are every byte of each frame's header and of the 32 bytes either side
+// of each frame boundary, and every 61st byte of the pages between; the
+// optimised build cuts at every byte.
+bool cut_here(std::size_t cut, std::size_t frame) {
+  if (!kSanitized || cut < 32) return true;
+  const std::size_t in_frame = (cut - 32) % frame;
+  return in_frame < 24 + 32 || in_frame >= frame - 32 || in_frame % 61 == 0;
+}
+
 TEST(Crash, WalCutAtEveryByteOfTheLastTwoCommitsLosesOnlyTheCutCommit) {
   TempDir dir, copy(scratch_base());
   const auto state = random_bytes(20'000, 7);
@@ -55,9 +67,11 @@ TEST(Crash, WalCutAtEveryByteOfTheLastTwoCommitsLosesOnlyTheCutCommit) {
   ASSERT_EQ(ends.size(), batches.size());
   ASSERT_EQ(ends.back(), wal.size());
 
-  const std::size_t from = ends[ends.size() - 3];
-  std::size_t checked = 0;
+  const std::size_t from = ends[ends.size() - 3], frame = 24 + big_endian32(wal.data() + 8);
+  std::size_t checked = 0, wanted = 0;
   for (std::size_t cut = from; cut <= wal.size(); ++cut) {
+    if (!cut_here(cut, frame)) continue;
+    ++wanted;
     const fs::path store_dir = copy.path() / "cut";
     fs::remove_all(store_dir);
     fs::create_directories(store_dir);
@@ -77,7 +91,7 @@ TEST(Crash, WalCutAtEveryByteOfTheLastTwoCommitsLosesOnlyTheCutCommit) {
                     << r.journal.size() << " records; lost: " << (r.lost.empty() ? "" : r.lost.front());
     ++checked;
   }
-  EXPECT_EQ(checked, wal.size() - from + 1);
+  EXPECT_EQ(checked, wanted);
   RecordProperty("cuts", static_cast<int>(checked));
 }
 

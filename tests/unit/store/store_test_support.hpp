@@ -22,6 +22,15 @@ namespace sculpt::store::testing {
 
 namespace fs = std::filesystem;
 
+// The sanitized build (ASan + UBSan; meson.build defines SCULPT_SANITIZED_BUILD)
+// checks memory safety and undefined behaviour: where a case repeats one path
+// thousands of times, it takes fewer of them.
+#ifdef SCULPT_SANITIZED_BUILD
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 // A fresh directory below TMPDIR (or `base`), removed at the end of the test.
 struct TempDir : files::TempDir {
   explicit TempDir(const fs::path& base = fs::temp_directory_path()) : files::TempDir("sculpt-store", base) {}

@@ -121,8 +121,13 @@ void fuzz_and_settle(World<S>& w, std::uint64_t seed, int ticks, int rest_ticks,
   }
 }
 
+// Seeds per case. The sanitized build (meson.build defines
+// SCULPT_SANITIZED_BUILD) fuzzes fewer: the same kinds of input (teleports,
+// grab toggles, shape and radius changes, every material), fewer of them.
+constexpr std::uint64_t kToolPathSeeds = test::kSanitized ? 4 : 8, kMaterialSeeds = test::kSanitized ? 2 : 3;
+
 TEST(Stress, FuzzedToolPathsOnTheDefaultMaterials) {
-  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+  for (std::uint64_t seed = 1; seed <= kToolPathSeeds; ++seed) {
     World<float> w(SimSettings{}, 2);
     Material clay;
     clay.plastic = true;
@@ -160,7 +165,7 @@ TEST(Stress, ExtremeMaterials) {
     m.damping = c.damping;
     m.anchor_damping = c.anchor_damping;
     m.grab_stiffness = std::min(50.0, c.stiffness);
-    for (std::uint64_t seed = 77; seed < 80; ++seed) {
+    for (std::uint64_t seed = 77; seed < 77 + kMaterialSeeds; ++seed) {
       World<float> w(SimSettings{}, 2);
       w.add_body(make_icosphere(0.05f, 1), m);
       EXPECT_LT(w.substeps(0), kMaxSubsteps) << "the automatic substeps stay below the cap";

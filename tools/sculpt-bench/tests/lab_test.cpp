@@ -4,7 +4,11 @@
 // Pareto front of every integrator measured (cost = passes over the springs).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
+#include <tuple>
 
 #include "lab/accuracy.hpp"
 #include "lab/deltas.hpp"
@@ -21,8 +25,39 @@ constexpr double kPi = 3.14159265358979323846;
 // falls as h⁴, so 4 is already far below every error these tests compare.
 constexpr int kRefine = 4;
 
+// The mesh problem's references are most of this file's time (seconds each
+// in the sanitized build), and several tests want the same ones: each is made
+// once. One made with tick dt and step h holds, every k-th sample, the one of
+// tick k·dt and the same h, bit for bit (the same RK4 steps from the same
+// start): a coarser tick's is taken from it.
+const Reference* shared_reference(const Problem& p, double dt, int refine) {
+  static std::map<std::tuple<std::string, double, int>, Reference> made;
+  const auto key = std::tuple{p.name, dt, refine};
+  if (const auto it = made.find(key); it != made.end()) return &it->second;
+  const long ticks = std::lround(p.t_end / dt);
+  for (const auto& [fine_key, fine] : made) {
+    const auto& [name, fine_dt, fine_refine] = fine_key;
+    const long every = std::lround(dt / fine_dt);
+    if (name != p.name || every < 2 || dt / refine != fine_dt / fine_refine || fine_refine * every != refine ||
+        fine.x.size() != static_cast<std::size_t>(every * ticks + 1))
+      continue;
+    Reference coarse{.dt = dt, .x = {}};
+    for (std::size_t n = 0; n < fine.x.size(); n += static_cast<std::size_t>(every)) coarse.x.push_back(fine.x[n]);
+    return &made.emplace(key, std::move(coarse)).first->second;
+  }
+  return &made.emplace(key, make_reference(p, dt, refine)).first->second;
+}
+
+// ReferenceCache(p, finest, kRefine).get(dt), from the references above: at
+// least kRefine steps per step of the finest tick (ReferenceCache's rule).
+const Reference* reference(const Problem& p, double dt, double finest) {
+  if (p.exact) return nullptr;
+  return shared_reference(p, dt, std::max(kRefine, static_cast<int>(std::ceil(kRefine * dt / finest - 1e-9))));
+}
+
 std::vector<CaseResult> sweep(const Problem& p, Method m, Impl impl, bool dbl, int substeps = 1) {
-  ReferenceCache refs(p, p.dts.back(), kRefine);
+  // The finest first: the coarser ticks' references come from it.
+  for (auto dt = p.dts.rbegin(); dt != p.dts.rend(); ++dt) reference(p, *dt, p.dts.back());
   std::vector<CaseResult> out;
   for (double dt : p.dts) {
     CaseSpec s;
@@ -31,7 +66,7 @@ std::vector<CaseResult> sweep(const Problem& p, Method m, Impl impl, bool dbl, i
     s.use_double = dbl;
     s.dt = dt;
     s.substeps = substeps;
-    out.push_back(run_case(p, s, refs.get(dt)));
+    out.push_back(run_case(p, s, reference(p, dt, p.dts.back())));
   }
   return out;
 }
@@ -68,15 +103,14 @@ TEST(Accuracy, EulerIsFirstOrderAndGainsEnergy) {
 TEST(Accuracy, LabVerletReproducesTheDaemon) {
   for (const char* name : {"chain", "mesh"}) {
     const Problem p = make_problem(name);
-    ReferenceCache refs(p, 1e-3, kRefine);
     const double dt = p.dts[2];
     CaseSpec s;
     s.use_double = true;
     s.dt = dt;
     s.impl = Impl::daemon;
-    const CaseResult d = run_case(p, s, refs.get(dt));
+    const CaseResult d = run_case(p, s, reference(p, dt, 1e-3));
     s.impl = Impl::lab;
-    const CaseResult l = run_case(p, s, refs.get(dt));
+    const CaseResult l = run_case(p, s, reference(p, dt, 1e-3));
     // Same model and formulas: the same error to rounding (the daemon sums in another order).
     EXPECT_NEAR(d.error_max, l.error_max, 1e-6 * d.error_max + 1e-12) << name;
     EXPECT_EQ(d.spring_passes, l.spring_passes) << name;
@@ -87,15 +121,14 @@ TEST(Accuracy, ReferenceIsConverged) {
   // The mesh reference agrees with one at twice its resolution to far below the finest error measured.
   const Problem p = make_problem("mesh");
   const double dt = p.dts[2];
-  const Reference a = make_reference(p, dt, kRefine), b = make_reference(p, dt, 2 * kRefine);
+  const Reference &a = *shared_reference(p, dt, kRefine), &b = *shared_reference(p, dt, 2 * kRefine);
   double worst = 0;
   for (std::size_t n = 0; n < a.x.size(); ++n)
     for (std::size_t q = 0; q < a.x[n].size(); ++q) worst = std::max(worst, std::abs(a.x[n][q] - b.x[n][q]));
   CaseSpec s;
   s.use_double = true;
   s.dt = p.dts.back();
-  ReferenceCache refs(p, s.dt, kRefine);
-  EXPECT_LT(worst, 0.01 * run_case(p, s, refs.get(s.dt)).error_max);
+  EXPECT_LT(worst, 0.01 * run_case(p, s, reference(p, s.dt, s.dt)).error_max);
 }
 
 TEST(Stability, ChainCriticalDtIsTwoOverRootLambdaMax) {
@@ -150,7 +183,7 @@ TEST(Pareto, DefaultTickAndSubstepsAreOnTheFront) {
   // that costs more cannot dominate it (bounded test time, also under ASan).
   const std::vector<double> dts(p.dts.begin(), p.dts.begin() + 4);
   const double default_passes = p.t_end * defaults.rate_hz * auto_substeps;
-  ReferenceCache refs(p, dts.back(), kRefine);
+  for (auto dt = dts.rbegin(); dt != dts.rend(); ++dt) reference(p, *dt, dts.back());  // the finest first
   std::vector<CaseResult> all;
   for (Method m : kAllMethods)
     for (bool dbl : {false, true})
@@ -163,7 +196,7 @@ TEST(Pareto, DefaultTickAndSubstepsAreOnTheFront) {
           s.use_double = dbl;
           s.dt = dt;
           s.substeps = sub;
-          all.push_back(run_case(p, s, refs.get(dt)));
+          all.push_back(run_case(p, s, reference(p, dt, dts.back())));
         }
   auto find = [&](Method m, bool dbl) {
     for (std::size_t i = 0; i < all.size(); ++i)
@@ -213,13 +246,12 @@ TEST(Accuracy, FloatVerletKeepsItsDigitsAtFineSteps) {
   // within 10% of double (measured 2.6%; 5x worse while it kept x_prev), as
   // does symplectic Euler in float.
   const Problem p = make_problem("mesh");
-  ReferenceCache refs(p, p.dts.back(), kRefine);
   auto err = [&](Method m, bool dbl) {
     CaseSpec s;
     s.method = m;
     s.use_double = dbl;
     s.dt = p.dts.back();
-    return run_case(p, s, refs.get(s.dt)).error_max;
+    return run_case(p, s, reference(p, s.dt, s.dt)).error_max;
   };
   const double verlet_d = err(Method::position_verlet, true);
   EXPECT_LT(err(Method::position_verlet, false), 1.1 * verlet_d);
