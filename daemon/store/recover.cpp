@@ -48,10 +48,11 @@ std::optional<StoredSnapshot> Store::describe(std::int64_t id, std::uint64_t tic
     s.id = id;
     s.tick = tick;
     {
-      // The meta text is loaded only within its cap (SQLITE_TOOBIG beyond).
-      sqlite::LengthLimit limit(db_, limits_.max_meta_bytes);
+      // The meta text is loaded only within its cap (SQLITE_TOOBIG beyond;
+      // the limit counts the SQL text too, so it is set after the prepare).
       sqlite::Statement st(db_, "SELECT raw_size, meta FROM snapshot WHERE id = ?");
       st.bind(1, id);
+      sqlite::LengthLimit limit(db_, limits_.max_meta_bytes);
       try {
         if (!st.step("read a snapshot")) {
           why = "its row is gone";
@@ -65,11 +66,11 @@ std::optional<StoredSnapshot> Store::describe(std::int64_t id, std::uint64_t tic
       s.raw_size = size_of(st.column_int(0));
       s.meta = st.column_text(1);
     }
-    sqlite::LengthLimit limit(db_, limits_.max_key_bytes);
     sqlite::Statement refs(db_,
                            "SELECT r.key, b.raw_size, b.key IS NULL FROM snapshot_blob r LEFT JOIN blob b ON b.key = r.key "
                            "WHERE r.snapshot = ?");
     refs.bind(1, id);
+    sqlite::LengthLimit limit(db_, limits_.max_key_bytes);
     std::uint64_t count = 0;
     try {
       while (refs.step("read a snapshot's blobs")) {
@@ -103,9 +104,9 @@ std::optional<std::vector<std::byte>> Store::read_state(const StoredSnapshot& s,
       why = fmt::format("its state is {} bytes, more than the cap of {}", s.raw_size, cap);
       return std::nullopt;
     }
-    sqlite::LengthLimit limit(db_, ZSTD_COMPRESSBOUND(cap) + 64);
     sqlite::Statement st(db_, "SELECT codec, data FROM snapshot WHERE id = ?");
     st.bind(1, s.id);
+    sqlite::LengthLimit limit(db_, ZSTD_COMPRESSBOUND(cap) + 64);
     if (!st.step("read a snapshot")) {
       why = "its row is gone";
       return std::nullopt;
@@ -121,7 +122,6 @@ std::optional<std::vector<std::byte>> Store::read_blob(const std::string& key, s
                                                        std::string& why) {
   try {
     const std::uint64_t cap = std::min(max_bytes, limits_.max_decoded_bytes);
-    sqlite::LengthLimit limit(db_, ZSTD_COMPRESSBOUND(cap) + 64);
     sqlite::Statement size(db_, "SELECT raw_size FROM blob WHERE key = ?");
     size.bind(1, key);
     if (!size.step("read a blob")) {
@@ -135,6 +135,7 @@ std::optional<std::vector<std::byte>> Store::read_blob(const std::string& key, s
     }
     sqlite::Statement st(db_, "SELECT codec, data FROM blob WHERE key = ?");
     st.bind(1, key);
+    sqlite::LengthLimit limit(db_, ZSTD_COMPRESSBOUND(cap) + 64);
     if (!st.step("read a blob")) {
       why = fmt::format("blob {} is missing", key);
       return std::nullopt;
@@ -159,13 +160,12 @@ void Store::load_journal(std::int64_t after, Recovery& out) {
                                    out.journal.empty() ? after : static_cast<std::int64_t>(out.journal.back().tick), why));
   };
   try {
-    // A record longer than its cap is not loaded: length() of a blob reads
-    // only its header, and the limit stops any other value.
-    sqlite::LengthLimit limit(db_, limits_.max_record_bytes);
+    // No record longer than its cap is loaded (SQLITE_TOOBIG).
     sqlite::Statement st(db_,
                          "SELECT tick, length(data), CASE WHEN length(data) <= ?2 THEN data END FROM journal "
                          "WHERE tick > ?1 ORDER BY tick, seq");
     st.bind(1, after).bind(2, static_cast<std::int64_t>(limits_.max_record_bytes));
+    sqlite::LengthLimit limit(db_, limits_.max_record_bytes);
     while (st.step("read the journal")) {
       const std::int64_t tick = st.column_int(0);
       const std::int64_t size = st.column_int(1);
@@ -181,7 +181,7 @@ void Store::load_journal(std::int64_t after, Recovery& out) {
     }
   } catch (const sqlite::Error& e) {
     if (e.code() == SQLITE_TOOBIG)
-      return stop(fmt::format("holds a value longer than the cap of {} bytes", limits_.max_record_bytes));
+      return stop(fmt::format("holds a record longer than the cap of {} bytes", limits_.max_record_bytes));
     stop(fmt::format("could not be read ({})", e.what()));
   } catch (const std::exception& e) {  // no memory for the records
     stop(fmt::format("could not be read ({})", e.what()));
