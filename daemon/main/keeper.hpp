@@ -56,6 +56,7 @@ struct KeeperSettings {
   // steps slowly), whatever snapshot_every says.
   std::chrono::milliseconds replay_work_per_snapshot{5000};
   std::uint64_t history_budget = std::uint64_t{256} << 20;
+  std::size_t max_strokes = kMaxStrokes;
   // Recovery replays at most this much after the snapshot (a store is
   // untrusted input: no file can make it step forever): a journal record
   // further on in sculpt time (ticks at the scene's rate) stops the replay
