@@ -476,8 +476,9 @@ std::optional<Recovered> Keeper::recover(const std::function<bool()>& stop_reque
       // that went on without it.
       const std::uint64_t dropped = store_.drop_journal_after(replica_->next_tick());
       if (dropped > 0)
-        out.lost.push_back(fmt::format("{} journal records after tick {} were dropped from the store", dropped,
-                                       replica_->next_tick() > 0 ? replica_->next_tick() - 1 : 0));
+        out.lost.push_back(fmt::format("the journal after tick {} ({} record{}) was dropped from the store",
+                                       replica_->next_tick() > 0 ? replica_->next_tick() - 1 : 0, dropped,
+                                       dropped == 1 ? "" : "s"));
     }
   } catch (const RecoveryStopped&) {
     forget();
