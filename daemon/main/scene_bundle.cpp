@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 #include <map>
+#include <set>
 #include <stdexcept>
 
 #include "files/regular_file.hpp"
@@ -125,6 +126,17 @@ SceneBundle read_bundle(const fs::path& scene_file, const SimulationSettings& se
 }
 
 scene::Scene load_bundle(const SceneBundle& b) {
+  // Every file the scene's: a bundle read back from a store carries nothing else.
+  scene::SceneOptions names;
+  names.load_meshes = false;
+  std::set<std::string> named;
+  for (const scene::SceneMesh& m : scene::parse_scene(b.text, b.file, names).meshes)
+    if (!m.path.empty()) named.insert(m.source);
+  std::set<std::string> seen;
+  for (const SceneBundle::MeshFile& m : b.meshes)
+    if (!named.count(m.source) || !seen.insert(m.source).second)
+      throw scene::SceneError(b.file, 0, "the sculpt's copy of mesh file " + m.source +
+                                             (named.count(m.source) ? " is there twice" : " is not named by its scene"));
   files::TempDir dir("sculptd-scene");
   std::map<std::string, fs::path> located;
   for (std::size_t i = 0; i < b.meshes.size(); ++i) {
