@@ -227,6 +227,7 @@ class Keeper {
   std::set<std::uint32_t> unsaved_;                   // strokes changed since the last snapshot
   std::string bundle_key_;
   bool bundle_stored_ = false;
+  std::map<std::string, std::string> refused_bundles_;  // recover(): a bundle's key → why it was refused
   std::unique_ptr<InFlight> in_flight_;
   bool background_ = false;  // SCHED_IDLE now
 

@@ -17,6 +17,16 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr int kMetaFormat = 1;
+// The scene's files as a bundle, at most: its text (1 MiB at most) and its
+// meshes. Recovery reads no larger one, so none is written.
+constexpr std::uint64_t kMaxBundleBytes = std::uint64_t{256} << 20;
+
+void check_bundle_size(std::size_t bytes) {
+  if (bytes > kMaxBundleBytes)
+    throw std::length_error(fmt::format("the scene's files are {} bytes, more than a store keeps ({}): the sculpt is "
+                                        "not saved",
+                                        bytes, kMaxBundleBytes));
+}
 
 std::uint64_t fnv1a(std::span<const std::byte> bytes) {
   std::uint64_t h = 1469598103934665603ull;
@@ -91,6 +101,7 @@ void Keeper::write_scene_start(const JournalEntry& e) {
   const std::vector<std::string> refs{key};
   store::Status st;
   try {
+    check_bundle_size(bytes.size());
     const store::PreparedSnapshot prepared = store_.prepare_snapshot(e.tick, {}, meta.dump(), blobs, refs);
     std::lock_guard store_lock(store_mutex_);
     st = store_.write_snapshot(prepared);
@@ -157,6 +168,8 @@ void Keeper::snapshot(const char* why) {
   store::Health health;
   std::uint64_t stored = 0;
   try {
+    for (const store::BlobWrite& b : blobs)
+      if (b.key == bundle_key_) check_bundle_size(b.bytes.size());
     const store::PreparedSnapshot prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
     stored = prepared.data.size();
     for (const auto& b : prepared.blobs) stored += b.data.size();
@@ -190,8 +203,6 @@ void Keeper::snapshot(const char* why) {
 namespace {
 
 constexpr std::uint64_t kMaxTick = std::uint64_t{1} << 62;  // ~1.5e8 years of ticks at 1 kHz
-// The scene's files as a bundle: its text (1 MiB at most) and its meshes.
-constexpr std::uint64_t kMaxBundleBytes = std::uint64_t{256} << 20;
 // A stroke's blob beyond its images and blocks: the fields, the length prefixes, the mesh name (scene_bundle's cap).
 constexpr std::uint64_t kStrokeOverhead = 128 + 4096;
 constexpr std::uint64_t kTicksBetweenChecks = 16;  // of the clock and of stop_requested, while stepping
@@ -328,15 +339,25 @@ void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
   if (bundle_size == snap.blobs.end()) refuse(fmt::format("blob {} is missing", bundle_key));
   if (bundle_size->second > kMaxBundleBytes)
     refuse(fmt::format("its scene bundle is {} bytes, more than the cap of {}", bundle_size->second, kMaxBundleBytes));
+  // The snapshots before it share the bundle (its key names its bytes): one
+  // refused is not read, and its scene not built, again.
+  if (const auto was = refused_bundles_.find(bundle_key); was != refused_bundles_.end())
+    refuse(fmt::format("its scene bundle was refused above ({})", was->second));
   std::string why;
   std::shared_ptr<const SceneBundle> bundle;
-  {
-    const auto bytes = store_.read_blob(bundle_key, kMaxBundleBytes, why);
-    if (!bytes) refuse(why);
-    bundle = std::make_shared<const SceneBundle>(SceneBundle::from_bytes(*bytes));
+  scene::Scene scene;
+  try {
+    {
+      const auto bytes = store_.read_blob(bundle_key, kMaxBundleBytes, why);
+      if (!bytes) refuse(why);
+      bundle = std::make_shared<const SceneBundle>(SceneBundle::from_bytes(*bytes));
+    }
+    scene = load_bundle(*bundle);
+    replica_ = std::make_unique<Replica>(bundle, scene, number, first_tick, history_);
+  } catch (const std::exception& e) {
+    refused_bundles_[bundle_key] = e.what();
+    throw;
   }
-  scene::Scene scene = load_bundle(*bundle);
-  replica_ = std::make_unique<Replica>(bundle, scene, number, first_tick, history_);
   if (fresh) {
     if (snap.raw_size != 0 || first_tick != next_tick) refuse("a scene's start holds a state");
   } else {
@@ -444,6 +465,7 @@ std::optional<Recovered> Keeper::recover(const std::function<bool()>& stop_reque
     bundle_key_.clear();
     bundle_stored_ = false;
   };
+  refused_bundles_.clear();
   store::Recovery rec = store_.recover([&](const store::StoredSnapshot& snap) -> std::string {
     if (stop_requested && stop_requested()) throw RecoveryStopped("recovery stopped before it replayed anything");
     try {
