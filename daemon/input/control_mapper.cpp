@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -63,6 +66,8 @@ std::vector<std::byte> ControlMapper::state() const {
 void ControlMapper::restore_state(std::span<const std::byte> bytes) {
   for (const bool dry : {true, false}) {
     sim::StateReader r(bytes, dry);
+    sim::StateView view;
+    if (dry) r.note_to(&view);
     std::uint64_t tools = 0;
     r.value(tools, "mapper: tool count");
     if (tools != tools_)
@@ -71,6 +76,40 @@ void ControlMapper::restore_state(std::span<const std::byte> bytes) {
     r.field(devices_, "mapper: devices"), r.field(controls_, "mapper: controls"), r.field(late_, "mapper: late");
     r.field(undo_presses_, "mapper: undo presses"), r.field(redo_presses_, "mapper: redo presses");
     if (!r.done()) throw std::invalid_argument("mapper state: bytes left over");
+    if (dry) check_state(view);
+  }
+}
+
+// What a mapper can hold: flags that are flags, bindings the io thread could
+// have made, finite values within their ranges. Flags are looked at as bytes.
+void ControlMapper::check_state(const sim::StateView& view) const {
+  auto flag = [](std::span<const std::byte> bytes, std::size_t offset, const std::string& what) {
+    if (std::to_integer<unsigned>(bytes[offset]) > 1) throw std::invalid_argument("mapper state: " + what + " is not a flag");
+  };
+  const auto devices = view.bytes_of(&devices_);
+  for (std::size_t d = 0; d < kMaxDevices; ++d) {
+    const std::span<const std::byte> raw = devices.subspan(d * sizeof(DeviceState), sizeof(DeviceState));
+    const std::string at = "device " + std::to_string(d);
+    flag(raw, offsetof(DeviceState, attached), at + " attached");
+    for (std::size_t i = 0; i < kMaxBoundButtons; ++i) flag(raw, offsetof(DeviceState, held) + i, at + " button");
+    DeviceState s;
+    std::memcpy(static_cast<void*>(&s), raw.data(), sizeof s);
+    if (const std::string error = binding_error(s.binding); !error.empty())
+      throw std::invalid_argument("mapper state: " + at + ": " + error);
+    for (float v : s.value)
+      if (!std::isfinite(v) || std::abs(v) > 1e3f)
+        throw std::invalid_argument("mapper state: " + at + ": axis value " + std::to_string(v));
+  }
+  const auto controls = view.bytes_of(&controls_);
+  for (std::size_t t = 0; t < kMaxTools; ++t) {
+    const std::span<const std::byte> raw = controls.subspan(t * sizeof(ToolControl), sizeof(ToolControl));
+    const std::string at = "tool " + std::to_string(t);
+    flag(raw, offsetof(ToolControl, grab), at + " grab");
+    flag(raw, offsetof(ToolControl, connected), at + " connected");
+    ToolControl c;
+    std::memcpy(static_cast<void*>(&c), raw.data(), sizeof c);
+    for (float v : c.stick)
+      if (!(v >= -1.0f && v <= 1.0f)) throw std::invalid_argument("mapper state: " + at + ": stick " + std::to_string(v));
   }
 }
 

@@ -12,6 +12,10 @@
 #include "concurrency/spsc_ring.hpp"
 #include "input/input_message.hpp"
 
+namespace sculpt::sim {
+class StateView;
+}
+
 namespace sculpt::input {
 
 struct ToolControl {
@@ -45,7 +49,9 @@ class ControlMapper {
 
   // Everything later messages build on, as bytes (allocates): a mapper of
   // the same tool count continues from them exactly. restore_state throws
-  // std::invalid_argument naming what does not match, changing nothing.
+  // std::invalid_argument naming what does not match or cannot be (a flag
+  // that is no flag, a binding the io thread could not make, a value out of
+  // range), changing nothing.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
   std::size_t tools() const { return tools_; }
@@ -62,6 +68,7 @@ class ControlMapper {
     std::array<bool, kMaxBoundButtons> held{};
   };
   void apply_event(DeviceState& d, const InputEvent& e);
+  void check_state(const sim::StateView& view) const;
   void recompute();
 
   std::size_t tools_;

@@ -1,5 +1,9 @@
 #include "input/input_message.hpp"
 
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+
 namespace sculpt::input {
 
 bool DeviceBinding::add_axis(const AxisBinding& a) {
@@ -14,6 +18,39 @@ bool DeviceBinding::add_button(const ButtonBinding& b) {
   buttons[button_count++] = b;
   if (b.tool < 32) tool_mask |= 1u << b.tool;
   return true;
+}
+
+namespace {
+
+unsigned byte_at(const void* object, std::size_t offset) {
+  unsigned char c;
+  std::memcpy(&c, static_cast<const unsigned char*>(object) + offset, 1);
+  return c;
+}
+
+}  // namespace
+
+std::string binding_error(const DeviceBinding& b) {
+  if (b.axis_count > kMaxBoundAxes)
+    return "binding: " + std::to_string(b.axis_count) + " axes, at most " + std::to_string(kMaxBoundAxes);
+  if (b.button_count > kMaxBoundButtons)
+    return "binding: " + std::to_string(b.button_count) + " buttons, at most " + std::to_string(kMaxBoundButtons);
+  for (std::size_t i = 0; i < b.axes.size(); ++i) {
+    const AxisBinding& a = b.axes[i];
+    if (byte_at(&a, offsetof(AxisBinding, calibration) + offsetof(AxisCalibration, unipolar)) > 1)
+      return "binding: axis " + std::to_string(i) + ": the unipolar flag is not a flag";
+    if (i >= b.axis_count) continue;
+    if (!std::isfinite(a.scale) || std::abs(a.scale) > 1e3f)
+      return "binding: axis " + std::to_string(i) + ": scale " + std::to_string(a.scale);
+    if (!(a.calibration.dead_zone >= 0.0f && a.calibration.dead_zone <= 0.95f))
+      return "binding: axis " + std::to_string(i) + ": dead zone " + std::to_string(a.calibration.dead_zone) +
+             " (0 to 0.95)";
+  }
+  for (std::size_t i = 0; i < b.button_count; ++i)
+    if (static_cast<unsigned>(b.buttons[i].action) > static_cast<unsigned>(ButtonAction::redo))
+      return "binding: button " + std::to_string(i) + ": action " +
+             std::to_string(static_cast<unsigned>(b.buttons[i].action));
+  return {};
 }
 
 StickPlane stick_plane(const DeviceBinding& binding, std::size_t tool) {

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <type_traits>
 
 #include "input/calibration.hpp"
@@ -70,6 +71,12 @@ struct DeviceBinding {
   bool add_button(const ButtonBinding& b);  // false when full
   bool drives(std::size_t tool) const { return tool < 32 && (tool_mask >> tool) & 1u; }
 };
+
+// "" for a binding the io thread could have made (counts within the arrays,
+// flags and actions one of their values, finite scales, dead zones in
+// [0, 0.95]); else what is wrong. A binding read from a store or a session
+// file is checked before the mapper uses it. Looks at flags as bytes.
+std::string binding_error(const DeviceBinding& binding);
 
 // The plane a device's stick moves tool `tool` in, for the haptics: which
 // axis code moves the tool along which component, with which sign. A force

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <type_traits>
 #include <stdexcept>
 #include <string>
 
@@ -126,8 +129,47 @@ std::vector<std::byte> ToolDriver::state() const {
 void ToolDriver::restore_state(std::span<const std::byte> bytes) {
   for (const bool dry : {true, false}) {
     sim::StateReader r(bytes, dry);
+    sim::StateView view;
+    if (dry) r.note_to(&view);
     r.array(state_, "tool driver: tools");
     if (!r.done()) throw std::invalid_argument("tool driver state: bytes left over");
+    if (dry) check_state(view);
+  }
+}
+
+// What a driver of these specs can hold: each tool's spec the scene's, its
+// flags flags, its shape a shape, its scale within the limits and its pose
+// within the bounds. Flags and the shape are looked at as bytes.
+void ToolDriver::check_state(const sim::StateView& view) const {
+  const auto tools = view.array(state_);
+  for (std::size_t t = 0; t < tools.size(); ++t) {
+    const std::string at = "tool driver state: tool " + std::to_string(t) + ": ";
+    const std::span<const std::byte> raw = tools.element(t);
+    for (std::size_t off : {offsetof(State, tool) + offsetof(sim::Tool, active),
+                            offsetof(State, tool) + offsetof(sim::Tool, grab), offsetof(State, ever_connected),
+                            offsetof(State, counters_known)})
+      if (std::to_integer<unsigned>(raw[off]) > 1) throw std::invalid_argument(at + "a flag is not a flag");
+    for (std::size_t off : {offsetof(State, spec) + offsetof(ToolSpec, shape), offsetof(State, tool) + offsetof(sim::Tool, shape)}) {
+      std::underlying_type_t<sim::ToolShape> shape;
+      std::memcpy(&shape, raw.data() + off, sizeof shape);
+      if (shape != static_cast<int>(sim::ToolShape::sphere) && shape != static_cast<int>(sim::ToolShape::capsule))
+        throw std::invalid_argument(at + "shape " + std::to_string(shape));
+    }
+    const State s = tools[t];
+    const ToolSpec& want = state_[t].spec;
+    if (s.spec.shape != want.shape || std::memcmp(&s.spec.radius, &want.radius, sizeof want.radius) != 0 ||
+        std::memcmp(&s.spec.half_length, &want.half_length, sizeof want.half_length) != 0 ||
+        std::memcmp(&s.spec.speed, &want.speed, sizeof want.speed) != 0 ||
+        std::memcmp(s.spec.position.data(), want.position.data(), sizeof want.position) != 0)
+      throw std::invalid_argument(at + "not the scene's tool");
+    if (!(s.scale >= limits_.min_scale && s.scale <= limits_.max_scale))
+      throw std::invalid_argument(at + "scale " + std::to_string(s.scale) + ", the limits " +
+                                  std::to_string(limits_.min_scale) + " to " + std::to_string(limits_.max_scale));
+    if (!(s.tool.radius > 0) || !std::isfinite(s.tool.radius) || !finite3(s.tool.half_axis) || !finite3(s.tool.velocity))
+      throw std::invalid_argument(at + "its size or motion is not finite");
+    for (int a = 0; a < 3; ++a)
+      if (!(s.tool.position[a] >= limits_.bounds.lo[a] && s.tool.position[a] <= limits_.bounds.hi[a]))
+        throw std::invalid_argument(at + "its position is outside the scene's bounds");
   }
 }
 

@@ -14,6 +14,10 @@
 
 #include "sim/tool.hpp"
 
+namespace sculpt::sim {
+class StateView;
+}
+
 namespace sculpt::loop {
 
 using Vec3d = std::array<double, 3>;
@@ -81,7 +85,8 @@ class ToolDriver {
   // The tools' poses and what the driver remembers of their controls, as
   // bytes (allocates): a driver made from the same specs continues from
   // them exactly. restore_state throws std::invalid_argument naming what
-  // does not match, changing nothing.
+  // does not match or cannot be (another tool, a pose outside the bounds, a
+  // scale beyond the limits, a flag that is no flag), changing nothing.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
 
@@ -95,6 +100,8 @@ class ToolDriver {
     bool counters_known = false;   // the first control a device sends sets the baseline
     double scale = 1.0;
   };
+  void check_state(const sim::StateView& view) const;
+
   DriverLimits limits_;
   double dt_;
   std::vector<State> state_;

@@ -58,7 +58,8 @@ void CliOptions::apply(DaemonConfig& c) const {
   if (scene) c.scene = *scene;
   if (socket) c.socket = *socket;
   if (rate_hz) {
-    if (!(*rate_hz >= 1.0 && *rate_hz <= 100000.0)) throw ConfigError("--rate: must be within [1, 100000] Hz");
+    if (!(*rate_hz >= kRateRange.lo && *rate_hz <= kRateRange.hi))
+      throw ConfigError("--rate: must be within [1, 100000] Hz");
     c.rate_hz = *rate_hz;
   }
   if (input) c.input = parse_input_spec(*input, "--input");

@@ -101,7 +101,7 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("scene", c.scene);
   r.get("socket", c.socket);
   double rate = 0;
-  if (r.get("rate_hz", rate, 1.0, 100000.0)) c.rate_hz = rate;
+  if (r.get("rate_hz", rate, kRateRange.lo, kRateRange.hi)) c.rate_hz = rate;
   std::string s;
   if (r.get("input", s)) {
     try {
@@ -131,10 +131,10 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
 void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "tools", {"margin", "size_step", "min_scale", "max_scale"});
   const Reader r{file, t, "tools"};
-  r.get("margin", c.tool_margin, 0.0, 100.0);
-  r.get("size_step", c.size_step, 1.0001, 10.0);
-  r.get("min_scale", c.min_scale, 1e-3, 1.0);
-  r.get("max_scale", c.max_scale, 1.0, 1000.0);
+  r.get("margin", c.tool_margin, kToolMarginRange.lo, kToolMarginRange.hi);
+  r.get("size_step", c.size_step, kSizeStepRange.lo, kSizeStepRange.hi);
+  r.get("min_scale", c.min_scale, kMinScaleRange.lo, kMinScaleRange.hi);
+  r.get("max_scale", c.max_scale, kMaxScaleRange.lo, kMaxScaleRange.hi);
 }
 
 void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {

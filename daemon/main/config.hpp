@@ -17,6 +17,20 @@
 
 namespace sculpt::daemon {
 
+// The ranges a config file, the command line and a stored scene bundle are
+// all held to: a .sculpt file is no more trusted than a config.
+struct SettingRange {
+  const char* name;
+  double lo, hi;
+};
+inline constexpr SettingRange kRateRange{"rate_hz", 1.0, 100000.0};
+inline constexpr SettingRange kToolMarginRange{"tools.margin", 0.0, 100.0};
+inline constexpr SettingRange kSizeStepRange{"tools.size_step", 1.0001, 10.0};
+inline constexpr SettingRange kMinScaleRange{"tools.min_scale", 1e-3, 1.0};
+inline constexpr SettingRange kMaxScaleRange{"tools.max_scale", 1.0, 1000.0};
+// The input ring: the daemon uses 4096, or 16384 for a replay.
+inline constexpr SettingRange kRingCapacityRange{"input ring capacity", 16.0, 16384.0};
+
 inline constexpr const char* kDefaultConfigPath = "/etc/sculptd/sculptd.conf";
 // No socket given (flag or config file): the path follows the clients' rule
 // (client/socket_path.hpp: $SCULPTD_SOCKET, $RUNTIME_DIRECTORY,

@@ -45,6 +45,13 @@ namespace {
 constexpr auto kHousekeeping = 20 * kj::MILLISECONDS;  // duration check, replay pump, watchdog
 constexpr std::chrono::seconds kStatusEvery{5};
 
+// SIGTERM or SIGINT waiting: kj keeps them blocked on this thread until the
+// io loop runs, so work before it (recovery) asks here.
+bool termination_pending() {
+  sigset_t pending;
+  return sigpending(&pending) == 0 && (sigismember(&pending, SIGTERM) == 1 || sigismember(&pending, SIGINT) == 1);
+}
+
 // The composition root: builds the modules, wires them to each other and to
 // the io loop (signals, housekeeping timer, device events), and orders the
 // steps that involve several of them: the start, a scene swap, a reload,
@@ -72,6 +79,10 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     exit_ = kj::mv(exit.fulfiller);
     try {
       setup();
+    } catch (const RecoveryStopped& e) {  // SIGTERM or SIGINT while it replayed: a stop like any other
+      log::notice("{}: stopping", e.what());
+      stop_threads();
+      return 0;
     } catch (const std::exception& e) {
       log::err("{}", e.what());
       stop_threads();
@@ -181,7 +192,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   // The sculpt the store holds, recovered, or the configured scene anew.
   StartPoint install_first_scene() {
     std::optional<Recovered> rec;
-    if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover();
+    if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover(termination_pending);
     if (!rec && !cfg_.store.open.empty())
       throw std::runtime_error("--open " + cfg_.store.open + ": no sculpt could be recovered from it");
     if (!rec) {

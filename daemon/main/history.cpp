@@ -73,7 +73,7 @@ void History::drop_redo_branch() {
 }
 
 void History::fit_budget() {
-  while (used_ > budget_ && !strokes_.empty()) {
+  while ((used_ > budget_ || strokes_.size() > max_strokes_) && !strokes_.empty()) {
     forget(strokes_.front());
     strokes_.pop_front();
     ++dropped_;

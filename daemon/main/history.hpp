@@ -6,8 +6,8 @@
 // while it is undone; undo N then redo N gives back the same bits.
 //
 // Linear: the undone strokes are always the newest ones (the redo branch);
-// a new stroke drops them as soon as it changes a block. Bounded by a memory budget: the oldest strokes
-// fall off first. Strokes made on a scene that has since been reloaded stay
+// a new stroke drops them as soon as it changes a block. Bounded by a memory
+// budget and a count (kMaxStrokes): the oldest strokes fall off first. Strokes made on a scene that has since been reloaded stay
 // listed but cannot be undone. One thread (the keeper's replica) uses it.
 #pragma once
 
@@ -38,9 +38,15 @@ struct Stroke {
   std::uint64_t bytes() const { return images.size() + blocks.size() * sizeof(std::uint32_t) + sizeof(Stroke); }
 };
 
+// The most strokes a history keeps, whatever the budget: what listing,
+// publishing and saving them costs grows with the count (each has its blob
+// in the store), and recovery builds no more than this.
+inline constexpr std::size_t kMaxStrokes = 10000;
+
 class History {
  public:
-  explicit History(std::uint64_t budget_bytes) : budget_(budget_bytes) {}
+  explicit History(std::uint64_t budget_bytes, std::size_t max_strokes = kMaxStrokes)
+      : budget_(budget_bytes), max_strokes_(max_strokes) {}
 
   // Recording, as the replica's world reports its edits.
   void opened(std::uint32_t scene, std::uint32_t body, std::string_view mesh, std::uint64_t tick);
@@ -61,6 +67,7 @@ class History {
 
   const std::deque<Stroke>& strokes() const { return strokes_; }
   std::uint64_t budget() const { return budget_; }
+  std::size_t max_strokes() const { return max_strokes_; }
   std::uint64_t used() const { return used_; }
   std::uint64_t dropped() const { return dropped_; }
   bool open(std::uint32_t body) const;
@@ -86,6 +93,7 @@ class History {
   void forget(const Stroke& s);
 
   std::uint64_t budget_;
+  std::size_t max_strokes_;
   std::uint64_t used_ = 0;
   std::uint64_t dropped_ = 0;
   std::uint32_t next_number_ = 1;

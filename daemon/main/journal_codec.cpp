@@ -32,7 +32,10 @@ void decode_message(sim::StateReader& r, input::InputMessage& m) {
   if (kind > static_cast<std::uint8_t>(input::MessageKind::frame)) throw std::invalid_argument("unknown message kind");
   if (m.slot >= input::kMaxDevices) throw std::invalid_argument("device slot out of range");
   m.kind = static_cast<input::MessageKind>(kind);
-  if (m.kind == input::MessageKind::attach) r.value(m.binding, "binding");
+  if (m.kind == input::MessageKind::attach) {
+    r.value(m.binding, "binding");
+    if (const std::string error = input::binding_error(m.binding); !error.empty()) throw std::invalid_argument(error);
+  }
   if (m.kind != input::MessageKind::frame) return;
   m.frame.slot = m.slot;
   r.value(m.frame.count, "event count");

@@ -60,7 +60,7 @@ Keeper::Keeper(KeeperSettings settings, JournalTap& tap)
     : settings_(std::move(settings)),
       tap_(tap),
       store_(store::Store::open(settings_.dir, settings_.limits)),
-      history_(settings_.history_budget) {}
+      history_(settings_.history_budget, settings_.max_strokes) {}
 
 Keeper::~Keeper() { stop(); }
 

@@ -24,16 +24,19 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <kj/async.h>
+#include <nlohmann/json_fwd.hpp>
 
 #include "main/history.hpp"
 #include "main/journal.hpp"
@@ -53,6 +56,21 @@ struct KeeperSettings {
   // steps slowly), whatever snapshot_every says.
   std::chrono::milliseconds replay_work_per_snapshot{5000};
   std::uint64_t history_budget = std::uint64_t{256} << 20;
+  std::size_t max_strokes = kMaxStrokes;
+  // Recovery replays at most this much after the snapshot (a store is
+  // untrusted input: no file can make it step forever): a journal record
+  // further on in sculpt time (ticks at the scene's rate) stops the replay
+  // there, and so does the wall clock. The span is the longest
+  // snapshot_interval_s the config allows.
+  std::chrono::seconds replay_span_limit{86400};
+  std::chrono::milliseconds replay_time_limit{60000};
+};
+
+// recover() stopped because its caller asked (SIGTERM during the replay);
+// nothing was changed.
+class RecoveryStopped : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 // What recovery hands the daemon to start from.
@@ -123,7 +141,11 @@ class Keeper {
   // Before start(): the sculpt in the store, replayed to its last committed
   // tick; nullopt when the store holds none (new, or --fresh). Never
   // throws for damage: what could not be recovered is in Recovered::lost.
-  std::optional<Recovered> recover();
+  // Everything read is checked before it is used (docs/store.md, "What
+  // recovery checks"); a snapshot that does not fit is refused by name and
+  // the one before it tried. `stop_requested`, asked between replay steps:
+  // true makes it throw RecoveryStopped.
+  std::optional<Recovered> recover(const std::function<bool()>& stop_requested = {});
   // Before start(), instead of recover() or when it found nothing: empties
   // the store (the new sculpt's ticks start at 0), keeping what it held as
   // "previous.db" beside it. Throws store::StoreError.
@@ -174,7 +196,13 @@ class Keeper {
   kj::Promise<EditResult> edit(bool undo, std::uint32_t count);
   template <class Result>
   kj::Promise<Result> ask(std::unique_ptr<Request> r, std::shared_ptr<Result> out);
-  std::string recover_from(store::Snapshot& snap, std::vector<store::Record>& journal, Recovered& out);
+  void use_snapshot(const store::StoredSnapshot& snap, Recovered& out);
+  std::deque<Stroke> read_strokes(const store::StoredSnapshot& snap, const nlohmann::json& keys,
+                                  std::uint32_t next_stroke, std::uint64_t& dropped);
+  std::string replay(const std::vector<store::Record>& journal, const std::function<bool()>& stop_requested,
+                     Recovered& out);
+  bool advance_replica(std::uint64_t tick, std::chrono::steady_clock::time_point deadline,
+                       const std::function<bool()>& stop_requested);
 
   KeeperSettings settings_;
   JournalTap& tap_;
@@ -199,6 +227,7 @@ class Keeper {
   std::set<std::uint32_t> unsaved_;                   // strokes changed since the last snapshot
   std::string bundle_key_;
   bool bundle_stored_ = false;
+  std::map<std::string, std::string> refused_bundles_;  // recover(): a bundle's key → why it was refused
   std::unique_ptr<InFlight> in_flight_;
   bool background_ = false;  // SCHED_IDLE now
 

@@ -77,6 +77,12 @@ std::string Replica::apply(const JournalEntry& e) {
   Stroke* s = history_.find(e.edit);
   if (!s) return fmt::format("stroke {} is no longer in the history: its undo or redo at tick {} could not be replayed",
                              e.edit, e.tick);
+  // The sim thread writes only a stroke of its own scene (it marks any other
+  // refused); a journal from a file may say otherwise. (Strokes of this
+  // scene read from a store were checked against its world at recovery.)
+  if (s->scene != scene_number_)
+    return fmt::format("stroke {} is of scene {}, not this one ({}): its undo or redo at tick {} was not replayed",
+                       s->number, s->scene, scene_number_, e.tick);
   for (std::size_t i = 0; i < s->blocks.size(); ++i)
     world_->swap_block_image(s->body, s->blocks[i],
                              std::span<std::byte>(s->images).subspan(i * s->image_bytes, s->image_bytes));

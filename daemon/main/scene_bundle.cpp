@@ -1,7 +1,10 @@
 #include "main/scene_bundle.hpp"
 
 #include <fstream>
+
+#include <fmt/format.h>
 #include <map>
+#include <set>
 #include <stdexcept>
 
 #include "files/regular_file.hpp"
@@ -16,13 +19,18 @@ namespace fs = std::filesystem;
 constexpr char kMagic[8] = {'s', 'c', 'u', 'l', 'p', 't', 'b', 'n'};
 constexpr std::uint32_t kFormat = 1;
 constexpr std::uint64_t kMaxSceneBytes = std::uint64_t{1} << 20;
-constexpr std::uint64_t kMaxMeshBytes = std::uint64_t{2} << 30;
+constexpr std::uint64_t kMaxMeshBytes = std::uint64_t{1} << 30;  // what the importer reads (scene/mesh_import.cpp)
+constexpr std::uint64_t kMaxNameBytes = 4096;                      // a path, as the scene names it
+constexpr std::uint64_t kMaxMeshFiles = 4096;
 
 void put_text(sim::StateWriter& w, const std::string& s) { w.array(std::span<const char>(s.data(), s.size())); }
 
-std::string get_text(sim::StateReader& r, const char* what) {
+std::string get_text(sim::StateReader& r, const char* what, std::uint64_t max_bytes) {
   std::uint64_t n = 0;
   r.value(n, what);
+  if (n > max_bytes)
+    throw std::invalid_argument(fmt::format("scene bundle: the {} is {} bytes, more than the cap of {}", what, n,
+                                            max_bytes));
   if (n > r.left()) throw std::invalid_argument(std::string("scene bundle: truncated in ") + what);
   std::string s(n, '\0');
   r.raw(s.data(), n, what);
@@ -53,7 +61,7 @@ SceneBundle SceneBundle::from_bytes(std::span<const std::byte> bytes) {
   if (std::memcmp(magic, kMagic, sizeof kMagic) != 0) throw std::invalid_argument("scene bundle: not a scene bundle");
   if (format != kFormat) throw std::invalid_argument("scene bundle: format " + std::to_string(format) + ", this build reads 1");
   SceneBundle b;
-  b.file = get_text(r, "scene name"), b.text = get_text(r, "scene text");
+  b.file = get_text(r, "scene name", kMaxNameBytes), b.text = get_text(r, "scene text", kMaxSceneBytes);
   std::uint8_t has_rate = 0;
   double rate = 0;
   std::uint64_t ring = 0, meshes = 0;
@@ -61,13 +69,24 @@ SceneBundle SceneBundle::from_bytes(std::span<const std::byte> bytes) {
   r.value(has_rate, "settings"), r.value(rate, "settings");
   r.value(s.tool_margin, "settings"), r.value(s.size_step, "settings"), r.value(s.min_scale, "settings");
   r.value(s.max_scale, "settings"), r.value(ring, "settings"), r.value(meshes, "mesh count");
+  if (has_rate > 1) throw std::invalid_argument("scene bundle: the rate flag is " + std::to_string(has_rate));
   if (has_rate) s.rate_hz = rate;
+  // As a config file's settings are held (the bundle's are the config's of the run that saved it).
+  if (ring > static_cast<std::uint64_t>(kRingCapacityRange.hi))
+    throw std::invalid_argument(fmt::format("scene bundle: input ring capacity is {}, not within [{}, {}]", ring,
+                                            kRingCapacityRange.lo, kRingCapacityRange.hi));
   s.ring_capacity = static_cast<std::size_t>(ring);
-  if (meshes > 4096) throw std::invalid_argument("scene bundle: " + std::to_string(meshes) + " mesh files");
+  try {
+    check_settings(s);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("scene bundle: ") + e.what());
+  }
+  if (meshes > kMaxMeshFiles)
+    throw std::invalid_argument(fmt::format("scene bundle: {} mesh files, at most {}", meshes, kMaxMeshFiles));
   for (std::uint64_t i = 0; i < meshes; ++i) {
     MeshFile m;
-    m.source = get_text(r, "mesh file name");
-    m.bytes = get_text(r, "mesh file");
+    m.source = get_text(r, "mesh file name", kMaxNameBytes);
+    m.bytes = get_text(r, "mesh file", kMaxMeshBytes);
     b.meshes.push_back(std::move(m));
   }
   if (!r.done()) throw std::invalid_argument("scene bundle: bytes left over");
@@ -107,6 +126,17 @@ SceneBundle read_bundle(const fs::path& scene_file, const SimulationSettings& se
 }
 
 scene::Scene load_bundle(const SceneBundle& b) {
+  // Every file the scene's: a bundle read back from a store carries nothing else.
+  scene::SceneOptions names;
+  names.load_meshes = false;
+  std::set<std::string> named;
+  for (const scene::SceneMesh& m : scene::parse_scene(b.text, b.file, names).meshes)
+    if (!m.path.empty()) named.insert(m.source);
+  std::set<std::string> seen;
+  for (const SceneBundle::MeshFile& m : b.meshes)
+    if (!named.count(m.source) || !seen.insert(m.source).second)
+      throw scene::SceneError(b.file, 0, "the sculpt's copy of mesh file " + m.source +
+                                             (named.count(m.source) ? " is there twice" : " is not named by its scene"));
   files::TempDir dir("sculptd-scene");
   std::map<std::string, fs::path> located;
   for (std::size_t i = 0; i < b.meshes.size(); ++i) {

@@ -25,7 +25,9 @@ struct SceneBundle {
   SimulationSettings settings;
 
   std::vector<std::byte> bytes() const;
-  // Throws std::invalid_argument naming what is wrong.
+  // Throws std::invalid_argument naming what is wrong: the format, a size
+  // beyond its cap (the scene text 1 MiB, a mesh file 1 GiB, 4096 files, a
+  // name 4 KiB), settings outside a config file's ranges (check_settings).
   static SceneBundle from_bytes(std::span<const std::byte> bytes);
 };
 
@@ -35,7 +37,8 @@ SceneBundle read_bundle(const std::filesystem::path& scene, const SimulationSett
 
 // The scene, parsed and its meshes loaded from the bundle's own bytes
 // (written to a private temporary directory for the importer, removed
-// after). Throws scene::SceneError.
+// after). Throws scene::SceneError, also for a mesh file the scene does not
+// name or one there twice (a bundle from a store holds only the scene's).
 scene::Scene load_bundle(const SceneBundle& bundle);
 
 }  // namespace sculpt::daemon

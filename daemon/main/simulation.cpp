@@ -1,5 +1,9 @@
 #include "main/simulation.hpp"
 
+#include <fmt/format.h>
+
+#include <stdexcept>
+
 #include "loop/scene_tools.hpp"
 #include "main/replica.hpp"
 #include "scene/scene_world.hpp"
@@ -19,6 +23,19 @@ constexpr std::size_t kRingCapacity = 4096;  // io → sim messages in flight
 constexpr std::size_t kReplayRingCapacity = 16384;
 
 }  // namespace
+
+void check_settings(const SimulationSettings& s) {
+  auto check = [](const SettingRange& r, double v) {
+    if (!(v >= r.lo && v <= r.hi))
+      throw std::invalid_argument(fmt::format("{} is {}, not within [{}, {}]", r.name, v, r.lo, r.hi));
+  };
+  if (s.rate_hz) check(kRateRange, *s.rate_hz);
+  check(kToolMarginRange, s.tool_margin);
+  check(kSizeStepRange, s.size_step);
+  check(kMinScaleRange, s.min_scale);
+  check(kMaxScaleRange, s.max_scale);
+  check(kRingCapacityRange, static_cast<double>(s.ring_capacity));
+}
 
 SimulationSettings simulation_settings(const DaemonConfig& config) {
   const bool replay = config.input.kind == InputSpec::Kind::replay;
@@ -42,6 +59,7 @@ loop::ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings
 
 Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board,
                             std::span<const std::byte> state) {
+  check_settings(settings);
   Simulation s;
   s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);
   s.tools = scene.tools.size();

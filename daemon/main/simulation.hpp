@@ -31,6 +31,11 @@ struct SimulationSettings {
   std::size_t ring_capacity = 4096;  // io → sim input messages in flight
 };
 
+// The settings within the ranges of main/config.hpp (k*Range): a stored
+// bundle's are held to what a config file is. Throws std::invalid_argument
+// naming the setting, its value and its range.
+void check_settings(const SimulationSettings& settings);
+
 struct SceneBundle;
 
 // A scene to build, and the bytes it was read from (main/scene_bundle.hpp).

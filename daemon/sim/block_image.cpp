@@ -3,6 +3,10 @@
 #include "sim/block_image.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <string>
+#include <type_traits>
 #include <cstring>
 
 #include "sim/blocks.hpp"
@@ -114,6 +118,84 @@ void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t 
   refit_body_box(b, before, after);
 }
 
+template <class S>
+std::string block_image_error(const Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk,
+                              const std::byte* image, const BlockImageBounds& bounds) {
+  std::string error;
+  auto fail = [&](const std::string& what) {
+    if (error.empty()) error = "block " + std::to_string(blk) + ": " + what;
+  };
+  auto in = [](const auto& a, const void* p) {
+    const auto* q = static_cast<const std::byte*>(p);
+    const auto* d = reinterpret_cast<const std::byte*>(a.data());
+    return !a.empty() && q >= d && q < d + a.size() * sizeof(a[0]);
+  };
+  const double per = b.velocity == kernel::Velocity::step ? 1.0 / bounds.dts : 1.0;
+  BlockState<S> state{};  // the image's, first of its pieces
+  bool awake = true;
+  for_each_piece<S>(b, layout.overflow_slots, blk, [&](const auto* p, std::size_t bytes, std::size_t slot) {
+    using T = std::remove_cv_t<std::remove_pointer_t<decltype(p)>>;
+    const std::byte* at = image;
+    image += slot;
+    if (bytes == 0 || !error.empty()) return;
+    if constexpr (std::is_same_v<T, BlockState<S>>) {
+      for (std::size_t off : {offsetof(T, awake), offsetof(T, touched), offsetof(T, changed), offsetof(T, dirty),
+                              offsetof(T, accel_current), offsetof(T, grabbed)})
+        if (std::to_integer<unsigned>(at[off]) > 1) return fail("a flag is not a flag");
+      T s;
+      std::memcpy(static_cast<void*>(&s), at, sizeof s);
+      for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(s.lo[k]) || !std::isfinite(s.hi[k]) || std::abs(s.lo[k]) > bounds.max_coordinate ||
+            std::abs(s.hi[k]) > bounds.max_coordinate || s.lo[k] > s.hi[k])
+          return fail("its box is not within the world");
+      if (!std::isfinite(s.grow) || s.grow < 0) return fail("its growth is not finite");
+      if (std::memcmp(&s.reach, &b.block[blk].reach, sizeof s.reach) != 0) return fail("its reach is not the body's");
+      if (!std::isfinite(s.energy)) return fail("its energy is not finite");
+      if (s.quiet_ticks < 0 || s.quiet_ticks > bounds.sleep_ticks) return fail("its quiet ticks are out of range");
+      state = s;
+      awake = std::to_integer<unsigned>(at[offsetof(T, awake)]) != 0;
+    } else if constexpr (std::is_same_v<T, SnapshotGrid<S>>) {
+      T g;
+      std::memcpy(&g, at, sizeof g);
+      for (int k = 0; k < 3; ++k)
+        if (!std::isfinite(g.lo[k]) || std::abs(g.lo[k]) > bounds.max_coordinate || !std::isfinite(g.step[k]) ||
+            g.step[k] < 0 || g.step[k] > bounds.max_coordinate)
+          return fail("the guard's grid is not within the world");
+    } else if constexpr (std::is_same_v<T, S>) {
+      for (std::size_t j = 0; j < bytes / sizeof(S); ++j) {
+        S v;
+        std::memcpy(&v, at + j * sizeof(S), sizeof v);
+        const double x = static_cast<double>(v);
+        const S* q = p + j;
+        bool ok = std::isfinite(x);
+        if (in(b.x, q) || in(b.y, q) || in(b.z, q)) {  // within the block's box, as World::restore_state checks
+          ok = ok && within_block_box(state, in(b.x, q) ? 0 : in(b.y, q) ? 1 : 2, x);
+        } else if (in(b.rx, q) || in(b.ry, q) || in(b.rz, q) || in(b.srx, q) || in(b.sry, q) || in(b.srz, q)) {
+          ok = ok && std::abs(x) <= bounds.max_coordinate;
+        } else if (in(b.wx, q) || in(b.wy, q) || in(b.wz, q)) {  // a sleeping block is at rest
+          ok = ok && std::abs(x * per) <= bounds.max_speed && (awake || x == 0.0);
+        } else if (in(b.rest_length, q) || in(b.slen, q)) {
+          const std::size_t e = static_cast<std::size_t>(q - (in(b.slen, q) ? b.slen.data() : b.rest_length.data()));
+          ok = ok && (b.nbr[e] == 0 ? v == S(0) : x >= 0 && x <= 2 * bounds.max_coordinate);
+        } else if (in(b.packed[0], q) || in(b.packed[1], q)) {
+          const std::size_t k = static_cast<std::size_t>(q - (in(b.packed[0], q) ? b.packed[0].data() : b.packed[1].data())) % 8;
+          ok = ok && (k == 3 || k == 7 ? x == 0.0
+                      : k < 3          ? std::abs(x) <= 2 * bounds.max_coordinate
+                                       : std::abs(x) <= bounds.max_speed);
+        } else if (!in(b.ax, q) && !in(b.ay, q) && !in(b.az, q)) {  // an overflow spring's rest length
+          ok = ok && x >= 0 && x <= 2 * bounds.max_coordinate;
+        }
+        if (!ok) return fail("a value is " + std::to_string(x) + ", not one a block can hold");
+      }
+    }
+  });
+  return error;
+}
+
+template std::string block_image_error(const Body<float>&, const BlockImageLayout&, std::uint32_t, const std::byte*,
+                                       const BlockImageBounds&);
+template std::string block_image_error(const Body<double>&, const BlockImageLayout&, std::uint32_t, const std::byte*,
+                                       const BlockImageBounds&);
 template BlockImageLayout block_image_layout(const Body<float>&);
 template BlockImageLayout block_image_layout(const Body<double>&);
 template void write_block_image(const Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);

@@ -21,6 +21,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "sim/body.hpp"
 
@@ -45,5 +46,21 @@ void write_block_image(const Body<S>& b, const BlockImageLayout& layout, std::ui
 // Allocates nothing.
 template <class S>
 void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image);
+
+// What an image from outside (a stroke read back from a store) must be
+// before it is swapped in, value by value as World::restore_state holds a
+// state: flags that are flags, the block's reach the body's, positions finite
+// and within ±max_coordinate, velocities within `max_speed` (m/s; w per
+// substep of at most `dts`), rest lengths finite and not negative (padding
+// entries 0). "" or what is wrong.
+struct BlockImageBounds {
+  double max_coordinate = 1e6;
+  double max_speed = 0;
+  double dts = 0;  // the longest substep the body takes (position Verlet's w is v·dts)
+  int sleep_ticks = 0;
+};
+template <class S>
+std::string block_image_error(const Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk,
+                              const std::byte* image, const BlockImageBounds& bounds);
 
 }  // namespace sculpt::sim

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -37,6 +38,18 @@ void refit_block(Body<S>& b, std::uint32_t blk) {
   s.lo = lo;
   s.hi = hi;
   s.grow = 0;
+}
+
+// Whether coordinate `a` of a vertex of the block can be x: within the box
+// at the last refit grown by how far any vertex may have moved since (the
+// invariant the broadphase relies on, which the step, the pushes and the
+// guard keep), with room for rounding. For a state read from outside.
+template <class S>
+bool within_block_box(const BlockState<S>& s, int a, double x) {
+  const double lo = s.lo[a], hi = s.hi[a];
+  const double slack = static_cast<double>(s.grow) * (1 + 1e-3) + 1e-3 * static_cast<double>(s.reach) +
+                       1e-6 * std::max(std::abs(lo), std::abs(hi)) + 1e-9;
+  return x >= lo - slack && x <= hi + slack;
 }
 
 // The body's box: the union of its blocks' boxes, grown.

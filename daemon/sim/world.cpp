@@ -26,7 +26,6 @@ namespace {
 using kernel::kBlock;
 
 constexpr int kSnapshotInterval = 32;  // ticks between good-state snapshots of moving blocks
-constexpr int kMaxBoost = 64;          // substep multiplier cap after repeated blow-ups
 constexpr double kEnergyGrowth = 4.0;  // energy may fluctuate (Verlet's measured energy wobbles) but not 4×
 
 bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
@@ -326,7 +325,7 @@ void World<S>::judge(std::uint32_t bi, bool finite) {
   ++stats_.blowups;
   last_blowup_body_ = bi;
   last_blowup_cause_ = finite ? BlowupCause::energy_growth : BlowupCause::non_finite;
-  b.boost = std::min(kMaxBoost, b.boost * 2);
+  b.boost = std::min(kMaxSubstepBoost, b.boost * 2);
   for (std::uint32_t t = 0; t < tool_slots_; ++t) {
     // Nothing from a diverged step reaches the haptics.
     if (b.tools[t].candidate_count > 0 || b.tools[t].grabbing) tracks_[t].force = {}, tracks_[t].contacts = 0;

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "sim/body.hpp"
@@ -38,6 +39,15 @@ struct ChangeRange {
 };
 
 enum class BlowupCause : std::uint8_t { non_finite, energy_growth };
+
+// After each blow-up a body steps with twice the substeps, up to this many times its own.
+inline constexpr int kMaxSubstepBoost = 64;
+// A state or block image from outside (World::restore_state, block_image_error)
+// has its positions within this of the origin (the bound a tool's own
+// position is held to, far beyond any scene) and its velocities within this
+// many times the guard's speed limit (room for the pushes after its test).
+inline constexpr double kStateMaxCoordinate = 1e6;
+inline constexpr double kStateSpeedMargin = 4.0;
 
 struct TickStats {
   std::uint64_t vertex_steps = 0;    // vertices integrated × substeps, this tick
@@ -102,8 +112,11 @@ class World {
   // Everything later ticks read of the state earlier ticks wrote, as bytes
   // (allocates); a world built from the same scene and settings continues
   // from them bit for bit. restore_state throws std::invalid_argument naming
-  // what does not match (another scene, precision or build), leaving the
-  // world as it was. Between ticks only. Restoring closes the open edits.
+  // what does not match (another scene, precision or build) or cannot be
+  // (an index out of range, a value not finite or beyond any world, a
+  // network or rest shape that is not the scene's), leaving the world as it
+  // was: the bytes are untrusted input. Between ticks only. Restoring closes
+  // the open edits.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
 
@@ -130,6 +143,11 @@ class World {
   // does not exist, an image of another size, or a body with an open edit
   // (close_edits() first).
   void swap_block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> image);
+  // swap_block_image trusts the image's values (it is the real-time
+  // thread's); one from outside (a stroke read back from a store) is checked
+  // here first: "" when body, block and size fit and every value is one the
+  // block can hold (sim/block_image.hpp), else what is wrong.
+  std::string block_image_error(std::uint32_t body, std::uint32_t block, std::span<const std::byte> image) const;
 
   // FNV-1a over the position bits of every body in original order.
   std::uint64_t hash() const;
@@ -146,6 +164,7 @@ class World {
   void settle(Body<S>& b, double energy);
   void log_changes(std::uint32_t bi);
   void read_state(class StateReader& r);
+  void check_state(const class StateView& view) const;
   void check_block(const char* what, std::uint32_t body, std::uint32_t block, std::size_t bytes) const;
 
   SimSettings settings_;

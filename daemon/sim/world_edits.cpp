@@ -2,6 +2,7 @@
 // read and swapped. The recording itself is EditRecorder's (edit_capture.hpp).
 #include <string>
 
+#include "sim/block_image.hpp"
 #include "sim/world.hpp"
 
 namespace sculpt::sim {
@@ -59,6 +60,23 @@ void World<S>::swap_block_image(std::uint32_t body, std::uint32_t block, std::sp
   edits_[body]->swapped(block);
 }
 
+template <class S>
+std::string World<S>::block_image_error(std::uint32_t body, std::uint32_t block,
+                                        std::span<const std::byte> image) const {
+  try {
+    check_block("block image", body, block, image.size());
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  const Body<S>& b = bodies_[body];
+  BlockImageBounds bounds;
+  bounds.max_coordinate = kStateMaxCoordinate;
+  bounds.max_speed = kStateSpeedMargin * b.speed_limit;
+  bounds.dts = 1.0 / settings_.rate_hz / base_substeps_[body];
+  bounds.sleep_ticks = settings_.sleep_ticks;
+  return sim::block_image_error(b, edits_[body]->layout(), block, image.data(), bounds);
+}
+
 template void World<float>::set_edit_sink(EditSink*);
 template void World<double>::set_edit_sink(EditSink*);
 template void World<float>::close_edits();
@@ -69,6 +87,8 @@ template std::size_t World<float>::block_image_bytes(std::uint32_t) const;
 template std::size_t World<double>::block_image_bytes(std::uint32_t) const;
 template void World<float>::block_image(std::uint32_t, std::uint32_t, std::span<std::byte>) const;
 template void World<double>::block_image(std::uint32_t, std::uint32_t, std::span<std::byte>) const;
+template std::string World<float>::block_image_error(std::uint32_t, std::uint32_t, std::span<const std::byte>) const;
+template std::string World<double>::block_image_error(std::uint32_t, std::uint32_t, std::span<const std::byte>) const;
 template void World<float>::swap_block_image(std::uint32_t, std::uint32_t, std::span<std::byte>);
 template void World<double>::swap_block_image(std::uint32_t, std::uint32_t, std::span<std::byte>);
 

@@ -5,6 +5,7 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -74,6 +75,25 @@ class Statement {
  private:
   Connection& db_;
   sqlite3_stmt* stmt_ = nullptr;
+};
+
+// While it lives, no value longer than `bytes` is read (or written) on the
+// connection: a step that meets one fails with SQLITE_TOOBIG ("string or
+// blob too big") before the value is loaded. length() of a blob column does
+// not load it.
+class LengthLimit {
+ public:
+  LengthLimit(Connection& db, std::uint64_t bytes)
+      : db_(db),
+        was_(sqlite3_limit(db.handle(), SQLITE_LIMIT_LENGTH,
+                           static_cast<int>(std::min<std::uint64_t>(bytes, 0x7fffffff)))) {}
+  LengthLimit(const LengthLimit&) = delete;
+  LengthLimit& operator=(const LengthLimit&) = delete;
+  ~LengthLimit() { sqlite3_limit(db_.handle(), SQLITE_LIMIT_LENGTH, was_); }
+
+ private:
+  Connection& db_;
+  int was_;
 };
 
 // A transaction that rolls back unless committed (BEGIN IMMEDIATE: the write

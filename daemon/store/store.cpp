@@ -286,6 +286,14 @@ Status Store::write_snapshot(std::uint64_t tick, std::span<const std::byte> stat
 
 PreparedSnapshot Store::prepare_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta,
                                          std::span<const BlobWrite> blobs, std::span<const std::string> refs) const {
+  // Nothing is written that recover() would refuse to read.
+  auto check = [this](std::string_view what, std::uint64_t bytes) {
+    if (bytes > limits_.max_decoded_bytes)
+      throw StoreError(fmt::format("{}: {} is {} bytes, more than a store holds ({})", db_.file().string(), what, bytes,
+                                   limits_.max_decoded_bytes));
+  };
+  check("the snapshot's state", state.size());
+  for (const BlobWrite& b : blobs) check(b.key, b.bytes.size());
   PreparedSnapshot p;
   p.tick = tick;
   p.raw_size = state.size();
@@ -325,6 +333,19 @@ void Store::clear() {
   pending_bytes_ = 0;
   gap_.reset();
   checkpoint();
+}
+
+std::uint64_t Store::drop_journal_after(std::uint64_t tick) {
+  try {
+    sqlite::Transaction tx(db_);
+    sqlite::Statement st(db_, "DELETE FROM journal WHERE tick > ?");
+    st.bind(1, static_cast<std::int64_t>(std::min<std::uint64_t>(tick, INT64_MAX))).run("drop the journal's tail");
+    const auto n = static_cast<std::uint64_t>(sqlite3_changes64(db_.handle()));
+    tx.commit();
+    return n;
+  } catch (const sqlite::Error&) {
+    return 0;
+  }
 }
 
 void Store::export_copy(const std::filesystem::path& file) {

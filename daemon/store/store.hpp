@@ -31,6 +31,11 @@
 //   dropped and their tick range is recorded, so recover() reports the gap.
 // - recover() never throws for a damaged store: it returns what is good and
 //   says what was lost and why.
+// - Untrusted on reading: a store may be a file from anywhere (`--open`).
+//   Every value read is checked against Limits' caps before it is used or
+//   allocated for (a declared size before decoding, a value's length before
+//   SQLite loads it, the journal's records and bytes, the snapshots tried),
+//   and what exceeds one is refused by name, as damage.
 #pragma once
 
 #include <chrono>
@@ -38,6 +43,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <optional>
 #include <span>
@@ -70,6 +76,17 @@ struct Limits {
   std::uint64_t max_pending_bytes = std::uint64_t{64} << 20;  // unwritten journal held in memory
   Codec codec = Codec::shuffle4_zstd;
   int zstd_level = 1;
+  // Reading (docs/store.md, "Caps"): the most a store file can make
+  // recovery allocate or do. Writes never make more.
+  std::uint64_t max_decoded_bytes = kMaxDecodedBytes;         // one state or blob, decoded
+  std::uint64_t max_meta_bytes = std::uint64_t{4} << 20;      // one snapshot's meta text
+  std::uint64_t max_blob_refs = 16384;                        // blobs one snapshot refers to
+  std::uint64_t max_key_bytes = 1024;                         // one blob key
+  std::uint64_t max_record_bytes = std::uint64_t{64} << 10;   // one journal record
+  std::uint64_t max_journal_records = std::uint64_t{1} << 20; // read after a snapshot
+  std::uint64_t max_journal_bytes = std::uint64_t{64} << 20;  // ...and their bytes
+  unsigned max_snapshots_tried = 8;                           // newest first
+  unsigned max_gaps_reported = 16;
 };
 
 struct RecordView {
@@ -112,6 +129,20 @@ struct Snapshot {
   std::string meta;
   std::map<std::string, std::vector<std::byte>> blobs;  // what it refers to (those that decode)
 };
+
+// A snapshot as recover() finds it before anything is decoded: what a Judge
+// looks at to decide whether to use it, and what to read of it.
+struct StoredSnapshot {
+  std::int64_t id = 0;
+  std::uint64_t tick = 0;
+  std::uint64_t raw_size = 0;                  // its state, decoded
+  std::string meta;
+  std::map<std::string, std::uint64_t> blobs;  // every blob it refers to that is stored → its decoded size
+  std::vector<std::string> missing;            // ...and those that are not
+};
+// "" : use this snapshot; else why not (recover() goes on to the one before).
+// It reads what it needs with Store::read_state and read_blob.
+using Judge = std::function<std::string(const StoredSnapshot&)>;
 
 struct Status {
   bool ok = true;
@@ -162,12 +193,28 @@ class Store {
                         std::span<const BlobWrite> blobs = {}, std::span<const std::string> refs = {});
   // The same in two steps: prepare_snapshot encodes (no disk; it reads only
   // the limits, so another thread may call it while one uses the store),
-  // write_snapshot(prepared) writes.
+  // write_snapshot(prepared) writes. Throws StoreError for a state or blob
+  // larger than Limits::max_decoded_bytes (recover() would not read it).
   PreparedSnapshot prepare_snapshot(std::uint64_t tick, std::span<const std::byte> state, std::string_view meta,
                                     std::span<const BlobWrite> blobs, std::span<const std::string> refs) const;
   Status write_snapshot(const PreparedSnapshot& prepared);
   Status append(std::span<const RecordView> records);  // one transaction
+  // The newest snapshot whose state and blobs all decode, and the journal after it.
   Recovery recover();
+  // The newest snapshot `judge` takes (at most Limits::max_snapshots_tried
+  // are offered, newest first) and the journal after it; Recovery::snapshot
+  // then holds its tick and meta only (the judge read what it needed).
+  // What the judge throws goes to the caller.
+  Recovery recover(const Judge& judge);
+  // A snapshot's state or a blob, decoded; nullopt (with `why`) when it is
+  // missing, damaged, or larger than `max_bytes` (checked before decoding).
+  std::optional<std::vector<std::byte>> read_state(const StoredSnapshot& s, std::uint64_t max_bytes, std::string& why);
+  std::optional<std::vector<std::byte>> read_blob(const std::string& key, std::uint64_t max_bytes, std::string& why);
+  const Limits& limits() const { return limits_; }
+  // Deletes the journal records of a tick > `tick`: what a recovery could not
+  // replay, so that no later one replays them on a sculpt that went on
+  // without them. Returns how many; 0 when it cannot (a degraded store).
+  std::uint64_t drop_journal_after(std::uint64_t tick);
   // Deletes every snapshot, journal record and blob: a sculpt starts anew
   // (its ticks start again from 0). Throws StoreError.
   void clear();
@@ -194,6 +241,9 @@ class Store {
   void written();
   void insert_snapshot(const PreparedSnapshot& s);
   void checkpoint();
+  std::optional<StoredSnapshot> describe(std::int64_t id, std::uint64_t tick, std::string& why);
+  void load_journal(std::int64_t after, Recovery& out);
+  void report_gaps(std::int64_t after, Recovery& out);
 
   struct Gap {
     std::uint64_t first_tick = 0, last_tick = 0, records = 0;

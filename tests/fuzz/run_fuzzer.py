@@ -16,6 +16,8 @@ def main():
     ap.add_argument('fuzzer')
     ap.add_argument('seeds', nargs='+', help='directories whose files seed the corpus')
     ap.add_argument('--seconds', type=int, default=5)
+    ap.add_argument('--rss-limit-mb', type=int, default=4096, help='libFuzzer -rss_limit_mb (and -malloc_limit_mb)')
+    ap.add_argument('--libfuzzer', action='append', default=[], help='another libFuzzer flag (-name=value)')
     args = ap.parse_args()
 
     with tempfile.TemporaryDirectory(prefix='sculpt-fuzz-') as tmp:
@@ -31,8 +33,8 @@ def main():
                     shutil.copyfile(src, os.path.join(corpus, f'{n:04d}-{name}'))
                     n += 1
         # -error_exitcode=1: libFuzzer's own default, 77, is what meson reads as "skipped".
-        cmd = [args.fuzzer, f'-max_total_time={args.seconds}', '-timeout=20', '-rss_limit_mb=4096', '-error_exitcode=1',
-               '-max_len=65536', f'-artifact_prefix={artifacts}', '-print_final_stats=1', corpus]
+        cmd = [args.fuzzer, f'-max_total_time={args.seconds}', '-timeout=20', f'-rss_limit_mb={args.rss_limit_mb}', '-error_exitcode=1',
+               '-max_len=65536', f'-artifact_prefix={artifacts}', '-print_final_stats=1'] + args.libfuzzer + [corpus]
         print('seed files:', n)
         print('running:', ' '.join(cmd), flush=True)
         status = subprocess.call(cmd)
