@@ -160,10 +160,6 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     if (!store_wanted(cfg_)) return;
     tap_ = std::make_unique<JournalTap>();
     KeeperSettings settings = keeper_settings(cfg_);
-    if (!cfg_.store.open.empty()) {
-      store::Store::import_file(settings.dir, cfg_.store.open);
-      log::notice("opened {}: it is now the sculpt in {}", cfg_.store.open, settings.dir.string());
-    }
     try {
       keeper_ = std::make_unique<Keeper>(settings, *tap_);
     } catch (const store::StoreInUse&) {
@@ -181,9 +177,9 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   // The sculpt the store holds, recovered, or the configured scene anew.
   StartPoint install_first_scene() {
     std::optional<Recovered> rec;
-    if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover();
-    if (!rec && !cfg_.store.open.empty())
-      throw std::runtime_error("--open " + cfg_.store.open + ": no sculpt could be recovered from it");
+    // --open: only a file that recovers replaces the saved sculpt (kept beside it).
+    if (keeper_ && !cfg_.store.open.empty()) rec = keeper_->open_file(cfg_.store.open);
+    else if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover();
     if (!rec) {
       if (keeper_) keeper_->start_anew();
       auto bundle = std::make_shared<SceneBundle>(read_bundle(cfg_.scene, simulation_settings(cfg_)));
@@ -223,8 +219,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     log::notice("recovered the sculpt of {} at tick {} (mesh hash {:016x}){}: the snapshot of tick {} and {} journal "
                 "entries, {} strokes of history, in {:.0f} ms; {}{}",
                 r.bundle->file, r.next_tick > 0 ? r.next_tick - 1 : 0, r.hash, r.paused ? ", paused" : "",
-                r.snapshot_tick, r.replayed, r.strokes, r.seconds * 1e3,
-                r.lost.empty() ? "nothing saved was lost" : "not exact, see below", last);
+                r.snapshot_tick, r.replayed, r.strokes, r.seconds * 1e3, r.loss, last);
     for (const std::string& l : r.lost) log::warning("recovery: {}", l);
     if (r.bundle->file != cfg_.scene && cfg_.store.open.empty())
       log::notice("the config names scene {}: start with --fresh to sculpt it instead", cfg_.scene);

@@ -1,12 +1,15 @@
 // Keeper: what goes into a snapshot (the replica's state, the scene bundle,
 // the strokes, as blobs by content) and recovery from it.
 #include <chrono>
+#include <ctime>
 
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "main/journal_codec.hpp"
 #include "main/keeper.hpp"
+#include "main/keeper_jobs.hpp"
 #include "main/log.hpp"
 #include "sim/state_bytes.hpp"
 
@@ -68,54 +71,63 @@ Stroke stroke_from(std::span<const std::byte> bytes) {
 }  // namespace
 
 // A scene's start as a snapshot of no state: recovery builds the scene's
-// world fresh from the bundle at `first_tick` and replays from there.
-void Keeper::write_scene_start(const JournalEntry& e) {
-  std::shared_ptr<const SceneBundle> bundle;
-  std::uint32_t next_scene = 0;
-  {
-    std::lock_guard lock(mutex_);
-    const auto it = incoming_.find(e.edit);
-    if (it == incoming_.end()) return;
-    bundle = it->second.bundle;
-    next_scene = next_scene_;
-  }
-  const std::vector<std::byte> bytes = bundle->bytes();
+// world fresh from the bundle at `first_tick` and replays from there. Store thread.
+void Keeper::write_scene_start(Job& job) {
+  const JournalEntry& e = job.scene;
+  const std::vector<std::byte> bytes = job.bundle->bytes();
   const std::string key = blob_key("bundle", bytes);
   const nlohmann::json meta = {{"format", kMetaFormat}, {"fresh", true},          {"scene", e.edit},
-                               {"next_scene", next_scene}, {"scene_file", bundle->file}, {"bundle", key},
+                               {"next_scene", job.next_scene}, {"scene_file", job.bundle->file}, {"bundle", key},
                                {"first_tick", e.tick},   {"next_tick", e.tick},    {"paused", false},
                                {"next_stroke", 1},       {"dropped", 0},           {"strokes", nlohmann::json::array()}};
   const std::vector<store::BlobWrite> blobs{{key, bytes}};
   const std::vector<std::string> refs{key};
   store::Status st;
   try {
-    const store::PreparedSnapshot prepared = store_.prepare_snapshot(e.tick, {}, meta.dump(), blobs, refs);
-    std::lock_guard store_lock(store_mutex_);
-    st = store_.write_snapshot(prepared);
+    st = store_.write_snapshot(store_.prepare_snapshot(e.tick, {}, meta.dump(), blobs, refs));
   } catch (const std::bad_alloc&) {
     st = store::Status{false, false, "no memory to compress the scene's files"};
   }
-  std::lock_guard lock(mutex_);
-  if (!st.ok && !st.deferred && st.error != last_store_error_) {
-    log::warning("autosave: the start of scene {}: {}; the sculpt goes on in memory and the store is retried",
-                 bundle->file, st.error);
-    last_store_error_ = st.error;
-  }
+  // Snapshots of the scenes before it are obsolete now, even when this one
+  // failed: the journal holds the swap, which a replay cannot cross.
+  scene_started_ = std::max(scene_started_, e.edit);
+  store_written(st, "the start of a scene");
 }
 
-void Keeper::snapshot(const char* why) {
-  if (!replica_) return;
+// Replica thread: the replica's state, compressed here (never holding up
+// the store), for the store thread; `then_export` is answered with a copy of
+// the store once it is written.
+void Keeper::snapshot(const char* why, std::unique_ptr<Request> then_export) {
+  if (!replica_) {
+    if (then_export) {
+      auto job = std::make_unique<Job>();
+      job->kind = Job::Kind::export_file;
+      job->request = std::move(then_export);
+      queue_job(std::move(job));
+    }
+    return;
+  }
   next_snapshot_ = Clock::now() + settings_.snapshot_every;
   replayed_since_snapshot_ = {};
+  {
+    std::vector<std::pair<std::uint64_t, std::vector<std::string>>> written;
+    {
+      std::lock_guard lock(mutex_);
+      written.swap(written_snapshots_);
+    }
+    // The newest snapshot written holds the blobs it refers to: others need not carry them.
+    if (!written.empty()) confirmed_keys_ = {written.back().second.begin(), written.back().second.end()};
+  }
   const auto began = Clock::now();
   const std::vector<std::byte> state = replica_->state();
   std::vector<std::vector<std::byte>> owned;
+  owned.reserve(history_.strokes().size() + 1);  // BlobWrite points into these
   std::vector<store::BlobWrite> blobs;
   std::vector<std::string> refs;
-  if (bundle_key_.empty() || !bundle_stored_) {
+  if (bundle_key_.empty() || !confirmed_keys_.count(bundle_key_)) {
     owned.push_back(replica_->bundle()->bytes());
     bundle_key_ = blob_key("bundle", owned.back());
-    blobs.push_back({bundle_key_, owned.back()});
+    if (!confirmed_keys_.count(bundle_key_)) blobs.push_back({bundle_key_, owned.back()});
   }
   refs.push_back(bundle_key_);
   for (std::uint32_t n : history_.take_gone()) stroke_keys_.erase(n), unsaved_.erase(n);
@@ -124,16 +136,25 @@ void Keeper::snapshot(const char* why) {
   nlohmann::json strokes = nlohmann::json::array();
   for (const Stroke& s : history_.strokes()) {
     auto known = stroke_keys_.find(s.number);
+    std::string key;
+    bool have_bytes = false;
     if (known == stroke_keys_.end() || unsaved_.count(s.number)) {
       owned.push_back(stroke_bytes(s));
-      keys[s.number] = blob_key("stroke", owned.back());
-      blobs.push_back({keys[s.number], owned.back()});
+      key = blob_key("stroke", owned.back());
+      have_bytes = true;
     } else {
-      keys[s.number] = known->second;
+      key = known->second;
     }
-    refs.push_back(keys[s.number]);
-    strokes.push_back(keys[s.number]);
+    if (!confirmed_keys_.count(key)) {
+      if (!have_bytes) owned.push_back(stroke_bytes(s));
+      blobs.push_back({key, owned.back()});
+    }
+    refs.push_back(key);
+    strokes.push_back(key);
+    keys[s.number] = std::move(key);
   }
+  stroke_keys_ = std::move(keys);
+  unsaved_.clear();
   std::uint32_t next_scene = 0;
   {
     std::lock_guard lock(mutex_);
@@ -150,62 +171,194 @@ void Keeper::snapshot(const char* why) {
                                {"next_stroke", history_.next_number()},
                                {"dropped", history_.dropped()},
                                {"strokes", strokes}};
-  // Compressed without the store: the journal thread's commits go on meanwhile.
-  store::Status st;
-  store::Health health;
-  std::uint64_t stored = 0;
+  auto job = std::make_unique<Job>();
+  job->kind = Job::Kind::snapshot;
+  job->scene_number = replica_->scene_number();
+  job->sequence = ++snapshot_sequence_;
+  job->state_bytes = state.size();
+  job->why = why;
   try {
-    const store::PreparedSnapshot prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
-    stored = prepared.data.size();
-    for (const auto& b : prepared.blobs) stored += b.data.size();
-    std::lock_guard store_lock(store_mutex_);
-    st = store_.write_snapshot(prepared);
-    health = store_.health();
+    job->prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
   } catch (const std::bad_alloc&) {
-    st = store::Status{false, false, "no memory to compress the snapshot"};
+    log::warning("autosave: no memory to compress the snapshot ({}); the next one is tried in {} s", why,
+                 std::chrono::duration_cast<std::chrono::seconds>(settings_.snapshot_every).count());
+    job.reset();
   }
-  std::lock_guard lock(mutex_);
-  ++stats_.snapshots;
-  stats_.snapshot_state_bytes = state.size();
-  stats_.snapshot_stored_bytes = stored;
-  stats_.snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
-  health_ = health;
-  if (st.ok) {
-    bundle_stored_ = true;
-    stroke_keys_ = std::move(keys);
-    unsaved_.clear();
-    log::debug("autosave: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", why,
-               replica_->next_tick(), state.size(), blobs.size(),
-               std::chrono::duration<double, std::milli>(Clock::now() - began).count());
-  } else if (!st.deferred && st.error != last_store_error_) {
-    log::warning("autosave: {}; the sculpt goes on in memory and the store is retried", st.error);
-    last_store_error_ = st.error;
+  if (job) {
+    job->prepare_ms = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
+    queue_job(std::move(job));
+  }
+  if (then_export) {
+    auto exporting = std::make_unique<Job>();
+    exporting->kind = Job::Kind::export_file;
+    exporting->request = std::move(then_export);
+    queue_job(std::move(exporting));
   }
 }
 
-std::optional<Recovered> Keeper::recover() {
+// Store thread.
+void Keeper::write_snapshot(Job& job) {
+  if (job.scene_number < scene_started_) return;  // a newer scene's start is written: a replay cannot reach this one
   const auto began = Clock::now();
-  store::Recovery rec = store_.recover();
+  store::PreparedSnapshot& p = *job.prepared;
+  std::uint64_t stored = p.data.size();
+  for (const auto& b : p.blobs) stored += b.data.size();
+  const store::Status st = store_.write_snapshot(p);
+  const double ms = job.prepare_ms + std::chrono::duration<double, std::milli>(Clock::now() - began).count();
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.snapshots;
+    stats_.snapshot_state_bytes = job.state_bytes;
+    stats_.snapshot_stored_bytes = stored;
+    stats_.snapshot_ms = ms;
+    if (st.ok) written_snapshots_.emplace_back(job.sequence, std::move(p.refs));
+  }
+  if (st.ok)
+    log::debug("autosave: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", job.why, p.tick,
+               job.state_bytes, p.blobs.size(), ms);
+  store_written(st, "snapshot");
+}
+
+std::optional<Recovered> Keeper::recover() {
+  std::vector<std::string> why;
+  std::optional<Recovered> rec = recover_store(store_, why, /*own=*/true);
+  if (!rec && !why.empty()) {
+    for (const auto& l : why) log::warning("recovery: {}", l);
+    log::warning("recovery: {} cannot be recovered; starting anew (the store is kept as it is, below)",
+                 store_.database().string());
+    unrecovered_ = true;
+  } else if (!rec && previous_run_ && previous_run_->committed > 0) {
+    log::warning("recovery: the daemon before this one (PID {}) had committed the sculpt to tick {}, but {} holds "
+                 "none: its files were removed or replaced ({:.1f} s of saved sculpt are missing); starting anew",
+                 previous_run_->pid, previous_run_->committed - 1, store_.database().string(),
+                 seconds_of(previous_run_->committed));
+  }
+  return rec;
+}
+
+Recovered Keeper::open_file(const std::filesystem::path& file) {
+  const std::string unchanged = fmt::format("; nothing was changed ({} is as it was)", store_.database().string());
+  std::optional<store::Store> candidate;
+  try {
+    candidate.emplace(store_.open_candidate(file));
+  } catch (const store::StoreError& e) {
+    throw std::runtime_error(fmt::format("--open: {}{}", e.what(), unchanged));
+  }
+  std::vector<std::string> why;
+  std::optional<Recovered> rec = recover_store(*candidate, why, /*own=*/false);
+  if (!rec) {
+    reset_history();
+    std::string reasons;
+    for (std::string w : why) {
+      // The scratch copy's name means nothing to the user: the file's does.
+      for (auto at = w.find(candidate->database().string()); at != std::string::npos;
+           at = w.find(candidate->database().string(), at))
+        w.replace(at, candidate->database().string().size(), file.string());
+      reasons += "; " + w;
+    }
+    throw std::runtime_error(fmt::format("--open {}: no sculpt could be recovered from it{}{}", file.string(),
+                                         why.empty() ? std::string(" (it holds none)") : reasons, unchanged));
+  }
+  const std::filesystem::path kept = store_.adopt(std::move(*candidate));
+  if (kept.empty())
+    log::notice("opened {}: it is now the sculpt in {}", file.string(), store_.dir().string());
+  else
+    log::notice("opened {}: it is now the sculpt in {}; the one it replaces is kept as {} (sculptd --open {} goes "
+                "back to it)",
+                file.string(), store_.dir().string(), kept.string(), kept.string());
+  return std::move(*rec);
+}
+
+// `store`'s sculpt, or nullopt with what made it unusable in `why` (empty:
+// the store holds none). `own`: the store this daemon ran before, which the
+// marker of the run that ended speaks of.
+std::optional<Recovered> Keeper::recover_store(store::Store& store, std::vector<std::string>& why, bool own) {
+  const auto began = Clock::now();
+  store::Recovery rec = store.recover();
   Recovered out;
   out.lost = std::move(rec.lost);
   if (!rec.snapshot) {
     if (!rec.journal.empty() || !out.lost.empty()) {
-      for (const auto& l : out.lost) log::warning("recovery: {}", l);
-      log::warning("recovery: {} has no usable snapshot; starting anew", store_.database().string());
+      why = std::move(out.lost);
+      why.push_back(fmt::format("{} has no usable snapshot", store.database().string()));
     }
     return std::nullopt;
   }
+  std::string stopped;
   try {
-    const std::string error = recover_from(*rec.snapshot, rec.journal, out);
-    if (!error.empty()) out.lost.push_back(error);
+    stopped = recover_from(*rec.snapshot, rec.journal, out);
   } catch (const std::exception& e) {
-    log::warning("recovery: {}: {}; starting anew", store_.database().string(), e.what());
-    replica_.reset();
-    history_.restore({}, history_.next_number(), history_.dropped());
+    why = std::move(out.lost);
+    why.push_back(fmt::format("{}: {}", store.database().string(), e.what()));
+    reset_history();
     return std::nullopt;
   }
+  confirmed_keys_.clear();  // the blobs the store holds for the snapshot recovered
+  for (const auto& [key, bytes] : rec.snapshot->blobs) confirmed_keys_.insert(key);
+  {
+    std::lock_guard lock(mutex_);
+    rate_hz_ = replica_->rate();
+    scene_started_ = replica_->scene_number();
+  }
+  explain_loss(rec.journal, stopped, own, out);
   out.seconds = std::chrono::duration<double>(Clock::now() - began).count();
   return out;
+}
+
+namespace {
+std::string utc_text(std::int64_t wall_ns) {
+  const std::time_t secs = static_cast<std::time_t>(wall_ns / 1000000000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  return fmt::format("{:%Y-%m-%d %H:%M:%S} UTC", tm);
+}
+}  // namespace
+
+// What the recovered state lacks, and why: the journal a replay could not
+// get through, and what the marker of the run that ended says the store
+// never got (its files taken away, or writes refused until it ended).
+void Keeper::explain_loss(const std::vector<store::Record>& journal, const std::string& stopped, bool own,
+                          Recovered& out) {
+  double lost_s = 0;
+  // Store ticks are global ticks + 1: a record's is the tick after its own.
+  std::uint64_t journal_end = out.next_tick;
+  for (const store::Record& r : journal) journal_end = std::max(journal_end, r.tick);
+  if (!stopped.empty()) {
+    if (journal_end > out.next_tick) {
+      const double s = seconds_of(journal_end - out.next_tick);
+      lost_s += s;
+      out.lost.push_back(fmt::format("{}; the journal after it, to tick {}, is lost ({:.1f} s of sculpt)", stopped,
+                                     journal_end - 1, s));
+    } else {
+      out.lost.push_back(stopped);
+    }
+  }
+  if (own && previous_run_) {
+    const SaveState& p = *previous_run_;
+    const std::uint64_t held = std::max(journal_end, out.next_tick);
+    if (p.committed > held) {
+      const double s = seconds_of(p.committed - held);
+      lost_s += s;
+      out.lost.push_back(fmt::format(
+          "the daemon before this one (PID {}) had committed the sculpt to tick {}, but the store holds it only to "
+          "tick {}: {:.1f} s of saved sculpt are missing (the store's files were removed or replaced while it ran, "
+          "or damaged)",
+          p.pid, p.committed - 1, held - 1, s));
+    }
+    if (p.ran > p.committed && (p.failing_since_ns != 0 || p.unnamed)) {
+      const double s = seconds_of(p.ran - p.committed);
+      lost_s += s;
+      const std::string why =
+          p.unnamed ? std::string("the store's files had been removed and could not be written back")
+                    : fmt::format("the store could not be written since {} ({})", utc_text(p.failing_since_ns), p.error);
+      out.lost.push_back(fmt::format("the daemon before this one (PID {}) {} while {}: ticks {}-{} ({:.1f} s of "
+                                     "sculpt, held in its memory) were never saved",
+                                     p.pid, p.ended ? "stopped" : "ended", why, p.committed, p.ran - 1, s));
+    }
+  }
+  if (out.lost.empty()) out.loss = "nothing saved was lost";
+  else if (lost_s > 0) out.loss = fmt::format("{:.1f} s of sculpt lost, see below", lost_s);
+  else out.loss = "not exact, see below";
 }
 
 // The snapshot's scene and state, then the journal after it replayed.
@@ -234,7 +387,6 @@ std::string Keeper::recover_from(store::Snapshot& snap, std::vector<store::Recor
   replica_ = std::make_unique<Replica>(bundle, scene, number, meta.at("first_tick").get<std::uint64_t>(), history_);
   if (!meta.value("fresh", false)) replica_->restore_state(snap.state);
   bundle_key_ = meta.at("bundle").get<std::string>();
-  bundle_stored_ = true;
   out.snapshot_tick = replica_->next_tick();
   std::string stopped;
   std::uint64_t target = replica_->next_tick();  // ticks before it are done

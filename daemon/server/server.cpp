@@ -439,8 +439,10 @@ kj::Promise<EditOutcome> Server::edit(std::uint64_t client, bool redo, std::uint
       .attach(kj::mv(answered));
 }
 
-void Server::fill_history(proto::History::Builder out) {
-  server::fill_history(out, control_.history(), options_.max_history_entries);
+void Server::fill_history(proto::History::Builder out, std::uint32_t from, std::uint32_t limit) {
+  const std::size_t most = std::max<std::size_t>(1, options_.max_history_entries);
+  const std::uint32_t page = limit == 0 || limit > most ? static_cast<std::uint32_t>(std::min<std::size_t>(most, UINT32_MAX)) : limit;
+  server::fill_history(out, control_.history(from, page), page);
 }
 
 namespace {

@@ -6,6 +6,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -27,6 +28,16 @@ struct Dir {
     fs::remove_all(path, ec);
   }
 };
+
+// The generations kept in `dir` whose names start with `prefix`, sorted.
+std::vector<fs::path> generations(const fs::path& dir, const std::string& prefix) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().filename().string().rfind(prefix, 0) == 0) out.push_back(e.path());
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 std::string final_hash(Sculptd& d) {
   static const std::regex re("final mesh hash ([0-9a-f]{16})");
@@ -98,8 +109,9 @@ TEST(Store, FreshKeepsTheSculptItReplaces) {
     Daemon first("fresh-1", {"--state-dir", d.path.string()});
   }
   Daemon again("fresh-2", {"--state-dir", d.path.string(), "--fresh"});
-  EXPECT_NE(again.process->log().find("previous.db"), std::string::npos) << again.process->log();
-  EXPECT_TRUE(fs::exists(d.path / "previous.db"));
+  const std::vector<fs::path> kept = generations(d.path, "previous-");
+  ASSERT_EQ(kept.size(), 1u) << again.process->log();
+  EXPECT_NE(again.process->log().find("kept as " + kept[0].string()), std::string::npos) << again.process->log();
   EXPECT_EQ(again.process->log().find("recovered the sculpt"), std::string::npos);
 }
 
