@@ -238,24 +238,24 @@ std::optional<Recovered> Keeper::recover() {
 
 Recovered Keeper::open_file(const std::filesystem::path& file) {
   const std::string unchanged = fmt::format("; nothing was changed ({} is as it was)", store_.database().string());
+  // The scratch copy's name means nothing to the user: the file's does.
+  const std::string scratch = (store_.dir() / "opening.db").string();
+  const auto named = [&](std::string w) {
+    for (auto at = w.find(scratch); at != std::string::npos; at = w.find(scratch, at)) w.replace(at, scratch.size(), file.string());
+    return w;
+  };
   std::optional<store::Store> candidate;
   try {
     candidate.emplace(store_.open_candidate(file));
   } catch (const store::StoreError& e) {
-    throw std::runtime_error(fmt::format("--open: {}{}", e.what(), unchanged));
+    throw std::runtime_error(fmt::format("--open {}{}", named(e.what()), unchanged));
   }
   std::vector<std::string> why;
   std::optional<Recovered> rec = recover_store(*candidate, why, /*own=*/false);
   if (!rec) {
     reset_history();
     std::string reasons;
-    for (std::string w : why) {
-      // The scratch copy's name means nothing to the user: the file's does.
-      for (auto at = w.find(candidate->database().string()); at != std::string::npos;
-           at = w.find(candidate->database().string(), at))
-        w.replace(at, candidate->database().string().size(), file.string());
-      reasons += "; " + w;
-    }
+    for (const std::string& w : why) reasons += "; " + named(w);
     throw std::runtime_error(fmt::format("--open {}: no sculpt could be recovered from it{}{}", file.string(),
                                          why.empty() ? std::string(" (it holds none)") : reasons, unchanged));
   }
