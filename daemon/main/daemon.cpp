@@ -112,7 +112,9 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
 
     hub_.set_mapping(input::parse_mapping(cfg_.mapping_table, cfg_.file.empty() ? "config" : cfg_.file));
     hub_.use_scene(sims_.scene(), sims_.tools(), sims_.stages(), sims_.rate());
-    haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
+    haptics_ = std::make_unique<haptics::HapticsThread>(
+        *board_, cfg_.haptics, haptics::open_evdev_port,
+        [](int priority, const std::string& message) { log::write_priority(priority, "haptics: " + message); });
     haptics_->start();
     // Pads may lose their FF state over a suspend: reopened at the resume.
     sleep_ = std::make_unique<SleepWatch>([h = haptics_.get()](bool sleeping) {
@@ -341,6 +343,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     if (const std::string line = blowups_.check(sims_.stats(), sims_.current_tick(), now); !line.empty())
       log::warning("{}", line);
     feed_watchdog(now);
+    hub_.log_held_tunes(now);
     const loop::SimThread* sim = sims_.thread();
     if (!sim) return;
     announce_ready_once();

@@ -151,22 +151,38 @@ void Keeper::run_journal() {
     std::uint64_t asked = 0;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait_for(lock, kIdleWait, [this] { return stop_ || collect_asked_ > collect_done_; });
+      wake_.wait_for(lock, kIdleWait,
+                     [this] { return stop_ || collect_asked_ > collect_done_ || !exports_.empty(); });
       stopping = stop_;
       asked = collect_asked_;
     }
     collect();
+    std::deque<std::unique_ptr<Request>> exports;
     {
       std::lock_guard lock(mutex_);
       collect_done_ = asked;
+      exports.swap(exports_);
     }
     wake_.notify_all();
     // The sim thread has stopped by the time stop() is called: all it did is taken now.
-    if (stopping || Clock::now() >= next_commit_) seal();
+    if (stopping || !exports.empty() || Clock::now() >= next_commit_) seal();
+    // An export is the store as it is once the journal so far is in it: its
+    // newest snapshot and the journal after it, which opening the file
+    // replays (at most replay_work_per_snapshot of work). Nothing of it
+    // runs on the replica, so an export neither waits for the replica nor
+    // adds its work to the machine's.
+    for (auto& r : exports) {
+      auto job = std::make_unique<Job>();
+      job->kind = Job::Kind::export_file;
+      job->request = std::move(r);
+      queue_job(std::move(job));
+    }
     if (stopping) break;
   }
   std::lock_guard lock(mutex_);
   journal_done_ = true;
+  for (auto& r : exports_) r->done(ExportResult{"the daemon is stopping", -1, 0});
+  exports_.clear();
   wake_.notify_all();
   store_wake_.notify_all();
 }
@@ -537,13 +553,6 @@ void Keeper::catch_up() {
 }
 
 void Keeper::serve(std::unique_ptr<Request> r) {
-  if (r->kind == Request::Kind::export_file) {
-    // The sculpt as it is now: everything replayed, a snapshot of it, then
-    // the copy, written by the store thread in that order.
-    catch_up();
-    snapshot("export", std::move(r));
-    return;
-  }
   catch_up();
   if (!replica_) {
     r->done(EditResult{"the sculpt has no history (its scene could not be replayed)", 0, 0});
@@ -713,7 +722,14 @@ kj::Promise<ExportResult> Keeper::export_sculpt() {
   r->kind = Request::Kind::export_file;
   r->exported = std::make_shared<ExportResult>();
   auto out = r->exported;
-  return ask(std::move(r), std::move(out));
+  auto paf = kj::newPromiseAndCrossThreadFulfiller<void>();
+  r->fulfiller = kj::mv(paf.fulfiller);
+  {
+    std::lock_guard lock(mutex_);
+    if (!stop_) exports_.push_back(std::move(r));  // else the fulfiller dies with r: the promise is rejected
+  }
+  wake_.notify_all();
+  return paf.promise.then([out] { return kj::mv(*out); });
 }
 
 HistoryInfo Keeper::history(std::uint32_t from, std::uint32_t limit) const {

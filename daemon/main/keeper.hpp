@@ -205,7 +205,7 @@ class Keeper {
   void replay_all();
   void catch_up();
   void switch_scene(std::uint32_t number);
-  void snapshot(const char* why, std::unique_ptr<Request> then_export = nullptr);
+  void snapshot(const char* why);
   void serve(std::unique_ptr<Request> r);
   bool plan(InFlight& f);
   void send_edits();
@@ -264,7 +264,8 @@ class Keeper {
   std::uint64_t collect_asked_ = 0, collect_done_ = 0;  // the replica thread asks for a collect now
   std::deque<JournalEntry> to_replica_;  // the journal thread's entries for the replica thread
   std::uint64_t finished_shared_ = 0;
-  std::deque<std::unique_ptr<Request>> requests_;
+  std::deque<std::unique_ptr<Request>> requests_;  // undo and redo, for the replica thread
+  std::deque<std::unique_ptr<Request>> exports_;   // for the journal thread
   std::deque<std::unique_ptr<Job>> jobs_;  // for the store thread, in order
   std::uint64_t queued_journal_bytes_ = 0;
   struct Dropped {

@@ -95,18 +95,9 @@ void Keeper::write_scene_start(Job& job) {
 }
 
 // Replica thread: the replica's state, compressed here (never holding up
-// the store), for the store thread; `then_export` is answered with a copy of
-// the store once it is written.
-void Keeper::snapshot(const char* why, std::unique_ptr<Request> then_export) {
-  if (!replica_) {
-    if (then_export) {
-      auto job = std::make_unique<Job>();
-      job->kind = Job::Kind::export_file;
-      job->request = std::move(then_export);
-      queue_job(std::move(job));
-    }
-    return;
-  }
+// the store), for the store thread.
+void Keeper::snapshot(const char* why) {
+  if (!replica_) return;
   next_snapshot_ = Clock::now() + settings_.snapshot_every;
   replayed_since_snapshot_ = {};
   {
@@ -187,12 +178,6 @@ void Keeper::snapshot(const char* why, std::unique_ptr<Request> then_export) {
   if (job) {
     job->prepare_ms = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
     queue_job(std::move(job));
-  }
-  if (then_export) {
-    auto exporting = std::make_unique<Job>();
-    exporting->kind = Job::Kind::export_file;
-    exporting->request = std::move(then_export);
-    queue_job(std::move(exporting));
   }
 }
 

@@ -95,8 +95,8 @@ void SaveMarker::write(const SaveState& s) {
 }
 
 void SaveMarker::remove() {
-  if (!fd_.valid()) return;
   fd_.reset();
+  tried_ = false;
   ::unlink(path_.c_str());
 }
 

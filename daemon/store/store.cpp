@@ -630,6 +630,14 @@ void Store::clear() {
 
 void Store::export_copy(const std::filesystem::path& file) {
   try {
+    // Not synced: whoever keeps the copy syncs it (sculptctl export does);
+    // the daemon's own is read and let go within seconds, and a sync would
+    // only put its megabytes on the disk for nothing.
+    db_.exec("PRAGMA synchronous = OFF", "copy the store without a sync");
+    struct Restore {
+      sqlite::Connection& db;
+      ~Restore() { sqlite3_exec(db.handle(), "PRAGMA synchronous = FULL", nullptr, nullptr, nullptr); }
+    } restore{db_};
     sqlite::Statement st(db_, "VACUUM INTO ?");
     st.bind(1, file.string()).run("copy the store");
   } catch (const sqlite::Error& e) {

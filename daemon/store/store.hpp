@@ -212,7 +212,8 @@ class Store {
   void clear();
 
   // A consistent copy of the whole store as one database file (`VACUUM
-  // INTO`): what `sculptctl export` hands out. Throws StoreError.
+  // INTO`): what `sculptctl export` hands out. Not fsynced (the caller syncs
+  // a copy it keeps). Throws StoreError.
   void export_copy(const std::filesystem::path& file);
 
   Health health() const;

@@ -1,13 +1,24 @@
 // The sim loop while a sculpt is exported (issue 29): sculptd on a big clay
-// scene, a recorded session sculpting it, its store on; windows of equal
-// length alternate between no export and one `sculptctl export` (a child
-// process writing the file, as a person would) started at the window's
-// start. Per kind of window it prints the loop's wake-up jitter p50/p99/max,
-// from the loop's own histogram diffed over each window
-// (Stats.jitterHistogram), and the overruns in them; side by side, one
-// daemon run. Numbers only: it fails only if something breaks.
+// scene, a recorded session sculpting it, its store on, and `sculptctl
+// export` (a child process writing the file, as a person would) started at
+// the beginning of some windows and not others. Per kind of window it prints
+// the loop's wake-up jitter p50/p99/max, from the loop's own histogram
+// diffed over each window (Stats.jitterHistogram), the overruns in them by
+// cause, and the sim thread's page faults and involuntary switches: side by
+// side, one daemon run. Numbers only: it fails only if something breaks.
 //
-//   export_jitter_bench SCENE SESSION [--window S] [--rounds N] [--realtime 0|1] [--subdivisions K]
+// The session's phases differ (grabs, rests), so which windows export is
+// balanced: the session is played `--loops` + 1 times back to back, cut into
+// windows aligned to the loop by the daemon's own tick count. The first
+// loop is not measured: on the pristine ball its first grabs are the
+// simulation's own long steps (docs/daemon.md, "Why ticks overrun"), which
+// the later loops, on the sculpted ball, do not have. Then a window exports
+// in loops 1 and 4 when its index is even, in loops 2 and 3 when odd
+// (ABBA): every phase is measured as often with an export as without.
+// `--no-export` runs the same schedule exporting nothing: the two columns
+// then show what the schedule alone does.
+//
+//   export_jitter_bench SCENE SESSION [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]
 // SCENE is a scene file; with --subdivisions K its icospheres are rebuilt
 // with K subdivisions in a temporary copy (its meshes must be builtin: 7 makes
 // the acceptance layout ~173k vertices, the size the issue measured).
@@ -24,6 +35,7 @@
 #include <vector>
 
 #include <kj/async-io.h>
+#include <nlohmann/json.hpp>
 
 #include "client/connection.hpp"
 #include "sculptd_process.hpp"
@@ -46,15 +58,16 @@ struct Reading {
 
 Reading read_now(client::Connection& c, kj::WaitScope& ws) {
   auto r = c.session().statusRequest().send().wait(ws);
+  const auto st = r.getStats();
   Reading out;
-  for (const auto b : r.getStats().getJitterHistogram()) out.jitter[b.getLowerNs()] = {b.getUpperNs(), b.getCount()};
-  out.overruns = r.getStats().getOverruns();
-  out.ticks = r.getStats().getTicks();
-  out.late_wake = r.getStats().getOverrunCauses().getLateWake();
-  out.long_step = r.getStats().getOverrunCauses().getLongStep();
-  out.off_cpu = r.getStats().getOverrunCauses().getLongStepOffCpu();
-  out.minflt = r.getStats().getSimThread().getMinflt();
-  out.nivcsw = r.getStats().getSimThread().getNivcsw();
+  for (const auto b : st.getJitterHistogram()) out.jitter[b.getLowerNs()] = {b.getUpperNs(), b.getCount()};
+  out.overruns = st.getOverruns();
+  out.ticks = st.getTicks();
+  out.late_wake = st.getOverrunCauses().getLateWake();
+  out.long_step = st.getOverrunCauses().getLongStep();
+  out.off_cpu = st.getOverrunCauses().getLongStepOffCpu();
+  out.minflt = st.getSimThread().getMinflt();
+  out.nivcsw = st.getSimThread().getNivcsw();
   return out;
 }
 
@@ -62,10 +75,9 @@ struct Acc {
   Histogram jitter;
   std::uint64_t overruns = 0, ticks = 0, windows = 0;
   std::uint64_t late_wake = 0, long_step = 0, off_cpu = 0, minflt = 0, nivcsw = 0;
-  double seconds = 0;
 };
 
-void add(Acc& acc, const Reading& before, const Reading& after, double seconds) {
+void add(Acc& acc, const Reading& before, const Reading& after) {
   for (const auto& [lo, uc] : after.jitter) {
     std::uint64_t prev = 0;
     if (auto it = before.jitter.find(lo); it != before.jitter.end()) prev = it->second.second;
@@ -80,7 +92,6 @@ void add(Acc& acc, const Reading& before, const Reading& after, double seconds) 
   acc.off_cpu += after.off_cpu - before.off_cpu;
   acc.minflt += after.minflt - before.minflt;
   acc.nivcsw += after.nivcsw - before.nivcsw;
-  acc.seconds += seconds;
   ++acc.windows;
 }
 
@@ -112,23 +123,52 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
+// `session` played `loops` times, each copy `period_us` after the last;
+// returns the period (the session's length and a second of rest).
+std::uint64_t loop_session(const std::string& session, int loops, const fs::path& out) {
+  std::ifstream in(session);
+  std::string header, line;
+  std::getline(in, header);
+  std::vector<nlohmann::json> frames;
+  while (std::getline(in, line))
+    if (!line.empty()) frames.push_back(nlohmann::json::parse(line));
+  const std::uint64_t period = (frames.empty() ? 0 : frames.back()[0].get<std::uint64_t>()) + 1000000;
+  std::ofstream o(out);
+  o << header << "\n";
+  for (int l = 0; l < loops; ++l)
+    for (nlohmann::json f : frames) {
+      f[0] = f[0].get<std::uint64_t>() + static_cast<std::uint64_t>(l) * period;
+      o << f.dump() << "\n";
+    }
+  return period;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s SCENE SESSION [--window S] [--rounds N] [--realtime 0|1] [--subdivisions K]\n",
+    std::fprintf(stderr,
+                 "usage: %s SCENE SESSION [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]\n",
                  argv[0]);
     return 2;
   }
   double window_s = 2.0;
-  int rounds = 5, subdivisions = 0;
-  bool realtime = false;
-  for (int i = 3; i + 1 < argc; i += 2) {
+  int loops = 4, subdivisions = 0;
+  bool realtime = false, exporting = true;
+  for (int i = 3; i < argc; ++i) {
     const std::string k = argv[i];
-    if (k == "--window") window_s = std::stod(argv[i + 1]);
-    else if (k == "--rounds") rounds = std::stoi(argv[i + 1]);
-    else if (k == "--realtime") realtime = std::string(argv[i + 1]) == "1";
-    else if (k == "--subdivisions") subdivisions = std::stoi(argv[i + 1]);
+    if (k == "--no-export") {
+      exporting = false;
+      continue;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "%s needs a value\n", k.c_str());
+      return 2;
+    }
+    if (k == "--window") window_s = std::stod(argv[++i]);
+    else if (k == "--loops") loops = std::max(1, std::stoi(argv[++i]));
+    else if (k == "--realtime") realtime = std::string(argv[++i]) == "1";
+    else if (k == "--subdivisions") subdivisions = std::stoi(argv[++i]);
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -139,41 +179,50 @@ int main(int argc, char** argv) {
   fs::create_directories(tmp);
   std::string scene = argv[1];
   if (subdivisions > 0) {
-    // The same layout, its spheres finer; mesh files it names stay where they are.
+    // The same layout, its spheres finer.
     std::string text = read_file(scene);
     text = std::regex_replace(text, std::regex(R"(subdivisions\s*=\s*\d+)"), "subdivisions = " + std::to_string(subdivisions));
-    const fs::path copy = tmp / "scene.toml";
-    std::ofstream(copy) << text;
-    scene = copy.string();
+    scene = (tmp / "scene.toml").string();
+    std::ofstream(scene) << text;
   }
+  const std::uint64_t period_us = loop_session(argv[2], loops + 1, tmp / "session.jsonl");
+  const std::uint64_t period_ticks = period_us / 1000, window_ticks = static_cast<std::uint64_t>(window_s * 1000);
+  const std::uint64_t windows_per_loop = period_ticks > 1000 ? (period_ticks - 1000) / window_ticks : 0;
   const std::string socket = (tmp / "sculptd.sock").string();
-  std::vector<std::string> args = {"--scene", scene, "--input", std::string("replay:") + argv[2], "--socket", socket,
-                                   "--state-dir", (tmp / "state").string(), "--log-level", "notice"};
+  std::vector<std::string> args = {"--scene", scene, "--input", "replay:" + (tmp / "session.jsonl").string(),
+                                   "--socket", socket, "--state-dir", (tmp / "state").string(), "--log-level", "notice"};
   if (realtime) args.push_back("--realtime");
   int status = 0;
   {
     e2e::Sculptd d(args);
-    const bool ready = d.wait_for_log("sculptd ready", 180s).has_value();
-    if (!ready) {
+    if (!d.wait_for_log("sculptd ready", 180s)) {
       std::fprintf(stderr, "sculptd did not start:\n%s", d.log().c_str());
       fs::remove_all(tmp);
       return 1;
     }
     auto io = kj::setupAsyncIo();
     client::Connection control(io, socket, "export-jitter-bench");
+    const auto wait_for_tick = [&](std::uint64_t tick) {
+      for (;;) {
+        const std::uint64_t now = control.session().statusRequest().send().wait(io.waitScope).getStats().getTicks();
+        if (now >= tick) return now;
+        std::this_thread::sleep_for(std::chrono::milliseconds(std::min<std::uint64_t>(20, tick - now)));
+      }
+    };
     std::map<bool, Acc> acc;  // false: no export, true: an export
     std::vector<double> export_s;
     std::uint64_t export_bytes = 0;
-    const auto window = std::chrono::duration<double>(window_s);
-    std::this_thread::sleep_for(1s);  // the first snapshot and the replica's start are not measured
-    for (int round = 0; round < rounds && status == 0; ++round) {
-      // Alternating which comes first: neither kind always gets the session's same phase.
-      for (int k = 0; k < 2; ++k) {
-        const bool exporting = (k == 0) == (round % 2 == 0);
+    for (int loop = 1; loop <= loops && status == 0; ++loop) {
+      const bool even_exports = loop % 4 == 1 || loop % 4 == 0;  // ABBA
+      for (std::uint64_t w = 0; w < windows_per_loop && status == 0; ++w) {
+        // Nor is the first second of a loop (the rest between two).
+        const std::uint64_t start = static_cast<std::uint64_t>(loop) * period_ticks + 1000 + w * window_ticks;
+        wait_for_tick(start);
+        const bool exports = ((w % 2 == 0) == even_exports);
         const Reading before = read_now(control, io.waitScope);
-        const auto t0 = std::chrono::steady_clock::now();
-        if (exporting) {
-          const std::string file = (tmp / ("round-" + std::to_string(round) + ".sculpt")).string();
+        if (exports && exporting) {
+          const auto t0 = std::chrono::steady_clock::now();
+          const std::string file = (tmp / "out.sculpt").string();
           const support::CommandRun ex = support::run_command(SCULPTCTL_BIN, {"export", file, "--socket", socket});
           export_s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
           if (ex.status != 0) {
@@ -184,31 +233,38 @@ int main(int argc, char** argv) {
           export_bytes = fs::file_size(file);
           fs::remove(file);
         }
-        std::this_thread::sleep_until(t0 + window);
+        wait_for_tick(start + window_ticks);
         const Reading after = read_now(control, io.waitScope);
-        add(acc[exporting], before, after,
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        if (std::getenv("EXPORT_JITTER_DEBUG"))
+          std::fprintf(stderr, "loop %d window %llu %s: %llu overruns\n", loop, static_cast<unsigned long long>(w),
+                       exports ? "export" : "quiet", static_cast<unsigned long long>(after.overruns - before.overruns));
+        add(acc[exports], before, after);
       }
     }
     auto st = control.session().statusRequest().send().wait(io.waitScope).getStats();
-    std::printf("export_jitter_bench: %s (%llu vertices) + %s, %d rounds of one %.1f s window each way%s\n", argv[1],
-                static_cast<unsigned long long>(st.getVerticesTotal()), argv[2], rounds, window_s,
-                realtime ? ", sculptd --realtime" : "");
+    std::printf("export_jitter_bench: %s (%llu vertices) + %s x%d after one not measured, %llu windows of %.1f s "
+                "per loop%s%s\n",
+                argv[1],
+                static_cast<unsigned long long>(st.getVerticesTotal()), argv[2], loops,
+                static_cast<unsigned long long>(windows_per_loop), window_s, realtime ? ", sculptd --realtime" : "",
+                exporting ? "" : ", --no-export: no window exports");
     if (!export_s.empty()) {
       std::sort(export_s.begin(), export_s.end());
-      std::printf("  export: %llu bytes, %.2f-%.2f s (sculptctl export, start to file written)\n",
-                  static_cast<unsigned long long>(export_bytes), export_s.front(), export_s.back());
+      std::printf("  export: %llu bytes, %.2f s median (%.2f-%.2f; sculptctl export, start to file written)\n",
+                  static_cast<unsigned long long>(export_bytes), export_s[export_s.size() / 2], export_s.front(),
+                  export_s.back());
     }
-    std::printf("  windows          ticks   jitter p50 us  p99 us   max us   overruns (late wake, long step, "
+    std::printf("  windows           ticks   jitter p50 us  p99 us   max us   overruns (late wake, long step, "
                 "off CPU)   sim thread minflt, nivcsw\n");
     for (const bool e : {false, true}) {
       const Acc& a = acc[e];
-      std::printf("  %-14s %7llu   %13.1f  %6.1f  %7.1f   %8llu (%llu, %llu, %llu)   %llu, %llu\n",
-                  e ? "with export" : "no export", static_cast<unsigned long long>(a.ticks),
-                  quantile_us(a.jitter, 0.5), quantile_us(a.jitter, 0.99), max_us(a.jitter),
-                  static_cast<unsigned long long>(a.overruns), static_cast<unsigned long long>(a.late_wake),
-                  static_cast<unsigned long long>(a.long_step), static_cast<unsigned long long>(a.off_cpu),
-                  static_cast<unsigned long long>(a.minflt), static_cast<unsigned long long>(a.nivcsw));
+      std::printf("  %-15s %7llu   %13.1f  %6.1f  %7.1f   %8llu (%llu, %llu, %llu)   %llu, %llu\n",
+                  e ? (exporting ? "with export" : "(export slots)") : "no export",
+                  static_cast<unsigned long long>(a.ticks), quantile_us(a.jitter, 0.5), quantile_us(a.jitter, 0.99),
+                  max_us(a.jitter), static_cast<unsigned long long>(a.overruns),
+                  static_cast<unsigned long long>(a.late_wake), static_cast<unsigned long long>(a.long_step),
+                  static_cast<unsigned long long>(a.off_cpu), static_cast<unsigned long long>(a.minflt),
+                  static_cast<unsigned long long>(a.nivcsw));
     }
     d.signal(SIGTERM);
     if (d.wait_exit(60s) != 0) {

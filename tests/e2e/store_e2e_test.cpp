@@ -182,6 +182,8 @@ TEST(Open, AFileThatDoesNotRecoverReplacesNothingHoweverOftenItIsTried) {
   ASSERT_TRUE(rec) << again.log();
   EXPECT_EQ(rec->hash, hash) << "the sculpt as it was left";
   EXPECT_NE(again.log().find("nothing saved was lost"), std::string::npos) << again.log();
+  again.signal(SIGTERM);
+  EXPECT_EQ(again.wait_exit(30s), 0);
 }
 
 TEST(Open, AFileThatRecoversReplacesTheSculptWhichItsGenerationBringsBack) {
@@ -211,6 +213,8 @@ TEST(Open, AFileThatRecoversReplacesTheSculptWhichItsGenerationBringsBack) {
   const auto rec = parse_recovery(back.log());
   ASSERT_TRUE(rec) << back.log();
   EXPECT_EQ(rec->hash, mine) << "the generation is the sculpt it replaced";
+  back.signal(SIGTERM);
+  EXPECT_EQ(back.wait_exit(30s), 0);
 }
 
 TEST(Open, AStoreThatDoesNotRecoverIsKeptAsItWasAndTheSculptStartsAnew) {

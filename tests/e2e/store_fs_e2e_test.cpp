@@ -117,6 +117,8 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
   EXPECT_GE(std::stod(lost[1]), 1.5) << "at least the two seconds sculpted read-only: " << log;
   EXPECT_NE(log.find("the store could not be written since"), std::string::npos) << log;
   EXPECT_NE(log.find("were never saved"), std::string::npos) << log;
+  again.signal(SIGTERM);
+  EXPECT_EQ(again.wait_exit(30s), 0);
 }
 
 TEST(Frozen, UndoRedoAndHistoryAnswerWhileTheDiskIsFrozen) {
