@@ -86,6 +86,9 @@ struct Recovered {
   // when the state is the last committed tick of an intact journal and no
   // witness of the run that ended says more was lost.
   std::string loss;
+  // The replay stopped before the journal's end (a record it could not use):
+  // what follows is not this state's, and must not be replayed onto it later.
+  bool replay_stopped = false;
   double seconds = 0;
 };
 
@@ -218,6 +221,7 @@ class Keeper {
   std::optional<Recovered> recover_store(store::Store& store, std::vector<std::string>& why, bool own);
   std::string recover_from(store::Snapshot& snap, std::vector<store::Record>& journal, Recovered& out);
   void explain_loss(const std::vector<store::Record>& journal, const std::string& stopped, bool own, Recovered& out);
+  void restart_store_from(const Recovered& rec);
   void reset_history();
 
   KeeperSettings settings_;

@@ -218,7 +218,28 @@ std::optional<Recovered> Keeper::recover() {
                  previous_run_->pid, previous_run_->committed - 1, store_.database().string(),
                  seconds_of(previous_run_->committed));
   }
+  if (rec && rec->replay_stopped) restart_store_from(*rec);
   return rec;
+}
+
+// After a replay that stopped short: the journal past that point would be
+// replayed onto the state the sculpt goes on from, at the next recovery.
+// The store as it is is kept (a generation), and a new one starts with a
+// snapshot of the state recovered, written before anything runs.
+void Keeper::restart_store_from(const Recovered& rec) {
+  const std::filesystem::path kept = store_.set_aside(store::Kept::unrecovered);
+  if (!kept.empty())
+    log::warning("recovery: the store as it was, with the journal it could not replay past tick {}, is kept as {}",
+                 rec.next_tick > 0 ? rec.next_tick - 1 : 0, kept.string());
+  confirmed_keys_.clear();  // the new store holds no blob yet
+  snapshot("recovered");
+  std::deque<std::unique_ptr<Job>> jobs;
+  {
+    std::lock_guard lock(mutex_);
+    jobs.swap(jobs_);
+  }
+  for (auto& job : jobs)
+    if (job->kind == Job::Kind::snapshot) write_snapshot(*job);
 }
 
 Recovered Keeper::open_file(const std::filesystem::path& file) {
@@ -245,6 +266,7 @@ Recovered Keeper::open_file(const std::filesystem::path& file) {
                                          why.empty() ? std::string(" (it holds none)") : reasons, unchanged));
   }
   const std::filesystem::path kept = store_.adopt(std::move(*candidate));
+  if (rec->replay_stopped) restart_store_from(*rec);
   if (kept.empty())
     log::notice("opened {}: it is now the sculpt in {}", file.string(), store_.dir().string());
   else
@@ -286,6 +308,7 @@ std::optional<Recovered> Keeper::recover_store(store::Store& store, std::vector<
     scene_started_ = replica_->scene_number();
   }
   explain_loss(rec.journal, stopped, own, out);
+  out.replay_stopped = !stopped.empty();
   out.seconds = std::chrono::duration<double>(Clock::now() - began).count();
   return out;
 }

@@ -168,6 +168,52 @@ TEST(Keeper, WhatTheRunBeforeLeftUnsavedIsSaidAtRecovery) {
   SaveMarker(dir).remove();
 }
 
+TEST(Keeper, AReplayStoppedShortKeepsTheStoreAndGoesOnFromWhatItRecovered) {
+  const fs::path dir = testing::fresh_dir("stopped");
+  KeeperSettings journal_only = settings(dir);  // only the scene's start is a snapshot
+  journal_only.snapshot_every = std::chrono::hours(1);
+  journal_only.replay_work_per_snapshot = std::chrono::hours(1);
+  {
+    Sculpt s(dir, "push.jsonl", journal_only);
+    s.rig.run(1500);
+    s.keeper.stop();
+  }
+  {
+    store::sqlite::Connection db(dir / "store.db", false);
+    // The snapshot at exit gone (the scene's start and the whole journal stay), a record in the middle damaged.
+    db.exec("DELETE FROM snapshot WHERE id <> (SELECT min(id) FROM snapshot);"
+            "UPDATE journal SET data = x'ffffffff' WHERE seq = (SELECT seq FROM journal ORDER BY seq LIMIT 1 "
+            "OFFSET (SELECT count(*) / 2 FROM journal))",
+            "damage a record");
+  }
+  std::uint64_t tick = 0, hash = 0;
+  {
+    JournalTap tap;
+    Keeper k(settings(dir), tap);
+    const std::optional<Recovered> rec = k.recover();
+    ASSERT_TRUE(rec);
+    EXPECT_TRUE(rec->replay_stopped);
+    ASSERT_FALSE(rec->lost.empty());
+    EXPECT_NE(rec->lost[0].find("is unreadable"), std::string::npos) << rec->lost[0];
+    EXPECT_NE(rec->lost[0].find("s of sculpt)"), std::string::npos) << "how much: " << rec->lost[0];
+    EXPECT_NE(rec->loss.find("s of sculpt lost, see below"), std::string::npos) << rec->loss;
+    tick = rec->next_tick;
+    hash = rec->hash;
+    EXPECT_EQ(store::Store::generations(dir, store::Kept::unrecovered).size(), 1u) << "the store as it was, kept";
+  }
+  // What the sculpt went on from is the store now: a recovery after it
+  // replays nothing of the journal that could not be replayed.
+  JournalTap tap;
+  Keeper again(settings(dir), tap);
+  const std::optional<Recovered> rec = again.recover();
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->lost.empty()) << rec->lost.front();
+  EXPECT_EQ(rec->loss, "nothing saved was lost");
+  EXPECT_EQ(rec->next_tick, tick);
+  EXPECT_EQ(rec->hash, hash);
+  EXPECT_EQ(rec->replayed, 0u);
+}
+
 TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   const fs::path dir = testing::fresh_dir("undo");
   Sculpt s(dir);
