@@ -21,6 +21,9 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kIdleWait = std::chrono::milliseconds(10);
 constexpr auto kReplaySlice = std::chrono::milliseconds(20);  // between journal commits
 constexpr unsigned kChunkBits = 10;  // what `history` shows, in chunks of 1024 stroke numbers
+// A store with nothing to write looks at its files this often (taken away
+// while the sculpt is paused, a second daemon could otherwise take the directory).
+constexpr auto kIdleCheck = std::chrono::seconds(1);
 
 std::int64_t wall_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -288,11 +291,18 @@ void Keeper::run_store() {
     bool retry = false;
     {
       std::unique_lock lock(mutex_);
-      // A store holding unwritten records retries without new input too (a paused sculpt).
+      // A store holding unwritten records retries without new input too (a
+      // paused sculpt); one with nothing to write still looks at its files.
       const bool waiting = health_.pending_records > 0 || health_.degraded;
       const auto ready = [this] { return !jobs_.empty() || (journal_done_ && replica_done_); };
-      if (waiting) retry = !store_wake_.wait_for(lock, settings_.limits.retry_interval, ready);
-      else store_wake_.wait(lock, ready);
+      const bool idle = !store_wake_.wait_for(lock, waiting ? settings_.limits.retry_interval : kIdleCheck, ready);
+      retry = idle && waiting;
+      if (idle && !waiting) {
+        lock.unlock();
+        const store::Status st = store_.check_files();
+        store_written(st, "a look at its files");
+        continue;
+      }
       if (jobs_.empty() && !retry) break;  // everything written, and nothing more will come
       while (!jobs_.empty() && jobs_.front()->kind == Job::Kind::journal) {
         queued_journal_bytes_ -= jobs_.front()->bytes.size();
@@ -312,8 +322,8 @@ void Keeper::run_store() {
     else if (job && job->kind == Job::Kind::export_file) write_export(*job);
   }
   const store::Health h = store_.health();
-  if (h.pending_records == 0 && !h.degraded && !h.unnamed && h.dropped_records == 0) {
-    marker_.remove();  // everything saved: nothing for the next start to tell
+  if (h.pending_records == 0 && !h.degraded && !h.unnamed) {
+    marker_.remove();  // everything saved (a gap is the store's to tell): nothing for the next start to tell
   } else {
     saved_.ended = true;
     marker_.write(saved_);

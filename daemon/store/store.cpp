@@ -490,6 +490,15 @@ void Store::keep_pending(std::span<const RecordView> records) {
   health_.pending_records = pending_.size();
 }
 
+Status Store::check_files() {
+  try {
+    keep_files_named(std::chrono::steady_clock::now());
+    return {};
+  } catch (const std::exception& e) {  // the next write fails and retries as for any disk fault
+    return {false, true, e.what()};
+  }
+}
+
 void Store::record_dropped(std::uint64_t first_tick, std::uint64_t last_tick, std::uint64_t records) {
   if (records == 0) return;
   if (!gap_) gap_ = Gap{first_tick, last_tick, 0};

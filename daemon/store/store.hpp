@@ -202,6 +202,10 @@ class Store {
                                     std::span<const BlobWrite> blobs, std::span<const std::string> refs) const;
   Status write_snapshot(const PreparedSnapshot& prepared);
   Status append(std::span<const RecordView> records);  // one transaction
+  // Whether the store's files are where they were, putting them back (as a
+  // write would) when not: for a store that has nothing to write for a
+  // while. Not ok (and deferred) only when they could not be put back.
+  Status check_files();
   // Journal records the caller dropped before they reached the store (its
   // own memory bound): recorded as a gap with the next write, as the
   // store's own dropped records are.

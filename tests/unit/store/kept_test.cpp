@@ -88,6 +88,20 @@ TEST(Taken, ADatabaseRemovedWithItsLogIsWrittenBackAtTheNextWrite) {
   EXPECT_TRUE(r.exact());
 }
 
+TEST(Taken, AStoreWithNothingToWriteFindsItsFilesGoneWhenItLooks) {
+  TempDir base;
+  const fs::path dir = base.path() / "state";
+  Store s = Store::open(dir);
+  sculpt(s, "kept");
+  fs::remove_all(dir);
+  EXPECT_TRUE(s.check_files().ok);
+  EXPECT_EQ(s.health().relocations, 1u);
+  EXPECT_THROW(Store::open(dir), StoreInUse) << "made again and locked before anyone else came";
+  EXPECT_TRUE(s.check_files().ok);
+  EXPECT_EQ(s.health().relocations, 1u) << "nothing more to do";
+  EXPECT_EQ(meta_of(s), "kept");
+}
+
 TEST(Taken, AWriteAheadLogRemovedAloneIsWrittenBackToo) {
   TempDir dir;
   Store s = Store::open(dir.path());
