@@ -308,7 +308,7 @@ TEST(History, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
   req.setFrom(8);
   req.setLimit(1);
   auto r = req.send().wait(h.io.waitScope);
-  auto hist = r.getHistory();
+  const auto hist = r.getHistory();
   ASSERT_EQ(hist.getEntries().size(), 1u);
   EXPECT_EQ(hist.getEntries()[0].getNumber(), 8u);
   EXPECT_EQ(hist.getOmitted(), 1u);
@@ -318,10 +318,10 @@ TEST(History, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
   auto big = c.session.historyRequest();
   big.setFrom(7);
   big.setLimit(1000000);
-  hist = big.send().wait(h.io.waitScope).getHistory();
-  ASSERT_EQ(hist.getEntries().size(), 2u);
-  EXPECT_EQ(hist.getEntries()[0].getNumber(), 7u);
-  EXPECT_EQ(hist.getNewer(), 1u);
+  auto whole = big.send().wait(h.io.waitScope);
+  ASSERT_EQ(whole.getHistory().getEntries().size(), 2u);
+  EXPECT_EQ(whole.getHistory().getEntries()[0].getNumber(), 7u);
+  EXPECT_EQ(whole.getHistory().getNewer(), 1u);
   c.session.historyRequest().send().wait(h.io.waitScope);
   const std::vector<std::pair<std::uint32_t, std::uint32_t>> asked{{8, 1}, {7, 2}, {0, 2}};
   EXPECT_EQ(h.control.history_asks, asked) << "the control is asked for the page, never for more";
