@@ -683,14 +683,25 @@ void Keeper::publish_history() {
 }
 
 void Keeper::write_export(Job& job) {
-  const std::filesystem::path file = settings_.dir / fmt::format("export-{}.sculpt", ::getpid());
+  // Beside the store; where the disk refuses it (read-only, full), in memory:
+  // an export is how a sculpt the disk will not take is saved elsewhere.
+  const std::string name = fmt::format("export-{}.sculpt", ::getpid());
+  std::filesystem::path file = settings_.dir / name;
   std::error_code ec;
   std::filesystem::remove(file, ec);
   try {
     store_.export_copy(file);
   } catch (const store::StoreError& e) {
-    job.request->done(ExportResult{e.what(), -1, 0});
-    return;
+    std::filesystem::remove(file, ec);
+    file = runtime_dir() / name;
+    std::filesystem::remove(file, ec);
+    try {
+      store_.export_copy(file);
+    } catch (const store::StoreError& again) {
+      std::filesystem::remove(file, ec);
+      job.request->done(ExportResult{fmt::format("{}; and in memory: {}", e.what(), again.what()), -1, 0});
+      return;
+    }
   }
   const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
   std::filesystem::remove(file, ec);  // the fd is the only way to it now

@@ -28,14 +28,6 @@ std::string boot_id() {
   return id;
 }
 
-std::filesystem::path runtime_dir() {
-  namespace fs = std::filesystem;
-  if (const char* d = std::getenv("RUNTIME_DIRECTORY"); d && *d) return std::string(d).substr(0, std::string(d).find(':'));
-  if (const char* d = std::getenv("XDG_RUNTIME_DIR"); d && *d) return d;
-  std::error_code ec;
-  return fs::is_directory("/dev/shm", ec) ? "/dev/shm" : "/tmp";
-}
-
 std::string canonical_text(const std::filesystem::path& dir) {
   std::error_code ec;
   const auto c = std::filesystem::weakly_canonical(dir, ec);
@@ -43,6 +35,14 @@ std::string canonical_text(const std::filesystem::path& dir) {
 }
 
 }  // namespace
+
+std::filesystem::path runtime_dir() {
+  namespace fs = std::filesystem;
+  if (const char* d = std::getenv("RUNTIME_DIRECTORY"); d && *d) return std::string(d).substr(0, std::string(d).find(':'));
+  if (const char* d = std::getenv("XDG_RUNTIME_DIR"); d && *d) return d;
+  std::error_code ec;
+  return fs::is_directory("/dev/shm", ec) ? "/dev/shm" : "/tmp";
+}
 
 std::filesystem::path SaveMarker::path_for(const std::filesystem::path& store_dir) {
   return runtime_dir() / fmt::format("sculptd-store-{:016x}.state", fnv1a(canonical_text(store_dir)));

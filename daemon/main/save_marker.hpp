@@ -29,10 +29,14 @@ struct SaveState {
   bool ended = false;             // the daemon stopped by itself, with this left unsaved
 };
 
+// Where sculptd keeps what must outlive a crash but not a reboot:
+// $RUNTIME_DIRECTORY, else $XDG_RUNTIME_DIR, else /dev/shm, else /tmp.
+std::filesystem::path runtime_dir();
+
 class SaveMarker {
  public:
-  // The marker of the store in `store_dir`: in $RUNTIME_DIRECTORY, else
-  // $XDG_RUNTIME_DIR, else /dev/shm, else /tmp; named by the directory.
+  // The marker of the store in `store_dir`: in runtime_dir(), named by the
+  // directory.
   static std::filesystem::path path_for(const std::filesystem::path& store_dir);
   // What the last daemon of `store_dir` left on this boot; nullopt: nothing
   // (none ran, or it ended with everything saved).

@@ -286,8 +286,7 @@ std::vector<fs::path> Store::generations(const fs::path& dir, Kept kind) {
 
 fs::path Store::set_aside(Kept kind) {
   if (!lock_) throw StoreError(fmt::format("{}: a store being opened cannot be set aside", file_.string()));
-  const Usage u = usage();
-  if (u.snapshots == 0 && u.journal_records == 0 && kind == Kept::previous) {
+  if (kind == Kept::previous && holds_nothing()) {
     clear();  // an empty store keeps nothing worth a generation
     return {};
   }
@@ -323,8 +322,7 @@ fs::path Store::set_aside(Kept kind) {
 fs::path Store::adopt(Store&& candidate, Kept kept_as) {
   if (!lock_ || candidate.lock_ || candidate.dir_ != dir_)
     throw StoreError(fmt::format("{}: only a store opened with open_candidate can be adopted", candidate.file_.string()));
-  const Usage u = usage();
-  const bool keep = u.snapshots > 0 || u.journal_records > 0;
+  const bool keep = !holds_nothing();
   const fs::path kept = keep ? generation_name(dir_, kept_as) : fs::path();
   candidate.db_.close();
   db_.close();
@@ -352,6 +350,17 @@ fs::path Store::adopt(Store&& candidate, Kept kept_as) {
     for (std::size_t i = 0; i + kKeptGenerations < all.size(); ++i) remove_database(all[i]);
   }
   return kept;
+}
+
+// True only for a store known to hold no snapshot and no journal: one that
+// cannot be read is never taken for empty (it is kept, not deleted).
+bool Store::holds_nothing() {
+  try {
+    return db_.query_int("SELECT (SELECT count(*) FROM snapshot) + (SELECT count(*) FROM journal)",
+                         "count what the store holds") == 0;
+  } catch (const sqlite::Error&) {
+    return false;
+  }
 }
 
 // --- the files taken away ---------------------------------------------------------
@@ -651,6 +660,28 @@ void Store::export_copy(const std::filesystem::path& file) {
     st.bind(1, file.string()).run("copy the store");
   } catch (const sqlite::Error& e) {
     throw StoreError(fmt::format("{}: cannot write a copy to {}: {}", file_.string(), file.string(), e.what()));
+  }
+  if (pending_.empty() && !gap_) return;
+  // What the disk refused is held here: the copy gets it too, so an export
+  // made while the store cannot be written is the whole sculpt.
+  try {
+    sqlite::Connection copy(file, false);
+    copy.exec("PRAGMA synchronous = OFF", "copy the store without a sync");
+    sqlite::Transaction tx(copy);
+    if (gap_) {
+      sqlite::Statement st(copy, "INSERT INTO gap (first_tick, last_tick, records) VALUES (?, ?, ?)");
+      st.bind(1, static_cast<std::int64_t>(gap_->first_tick))
+          .bind(2, static_cast<std::int64_t>(gap_->last_tick))
+          .bind(3, static_cast<std::int64_t>(gap_->records))
+          .run("record a journal gap in the copy");
+    }
+    sqlite::Statement st(copy, "INSERT INTO journal (tick, data) VALUES (?, ?)");
+    for (const Record& r : pending_)
+      st.bind(1, static_cast<std::int64_t>(r.tick)).bind(2, r.bytes).run("add the journal held in memory to the copy");
+    tx.commit();
+  } catch (const sqlite::Error& e) {
+    throw StoreError(fmt::format("{}: cannot add the {} journal records held in memory to the copy {}: {}",
+                                 file_.string(), pending_.size(), file.string(), e.what()));
   }
 }
 

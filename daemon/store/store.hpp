@@ -216,8 +216,9 @@ class Store {
   void clear();
 
   // A consistent copy of the whole store as one database file (`VACUUM
-  // INTO`): what `sculptctl export` hands out. Not fsynced (the caller syncs
-  // a copy it keeps). Throws StoreError.
+  // INTO`): what `sculptctl export` hands out, with the journal records held
+  // in memory (a disk that refuses writes) added to it. Not fsynced (the
+  // caller syncs a copy it keeps). Throws StoreError.
   void export_copy(const std::filesystem::path& file);
 
   Health health() const;
@@ -236,6 +237,7 @@ class Store {
   void keep_files_named(std::chrono::steady_clock::time_point now);
   void relocate(const std::string& what);
   void discard_candidate();
+  bool holds_nothing();
   template <class Write>
   Status attempt(std::string_view doing, Write&& write,
                  std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());

@@ -3,9 +3,10 @@
 // (ext4's own error path, errors=remount-ro, triggered through sysfs: a
 // remount with files open for writing is refused), which is then killed —
 // the restart says how much sculpt was never saved and why, never "nothing
-// saved was lost" — and one frozen (fsfreeze) while undo, redo and history
-// are asked: each answers while the disk is frozen, and the daemon stops
-// cleanly once it thaws.
+// saved was lost", while an export made before the kill holds that sculpt —
+// and one frozen (fsfreeze) while undo, redo and history are asked: each
+// answers while the disk is frozen, and the daemon stops cleanly once it
+// thaws.
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -103,7 +104,9 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
   Mounted m("store-ro");
   ASSERT_TRUE(m.ok()) << "cannot loop-mount an ext4 image (the test runs as root): " << m.error();
   const std::string dir = m.dir() + "/state";
-  std::uint64_t failing_at = 0, killed_at = 0;  // ticks the daemon had run
+  std::uint64_t failing_at = 0, exported_at = 0, killed_at = 0;  // ticks the daemon had run
+  const std::string rescue = temp_path("store-ro-rescue.sculpt");
+  ::unlink(rescue.c_str());
   {
     Daemon d("store-ro-1", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl"),
                             "--state-dir", dir});
@@ -113,6 +116,10 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
         << d.process->log();
     failing_at = ticks_of(d.socket);
     std::this_thread::sleep_for(2s);  // sculpt the store never gets
+    // What the disk refuses can still be saved elsewhere: an export holds it.
+    exported_at = ticks_of(d.socket);
+    const CtlRun ex = sculptctl({"export", rescue, "--socket", d.socket});
+    EXPECT_EQ(ex.status, 0) << ex.err;
     killed_at = ticks_of(d.socket);
     d.process->signal(SIGKILL);
     ASSERT_EQ(d.process->wait_exit(30s), 128 + SIGKILL);
@@ -136,6 +143,18 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
   EXPECT_NEAR(std::stod(never[3]), static_cast<double>(last - first + 1) / 1000.0, 0.051) << log;
   again.signal(SIGTERM);
   EXPECT_EQ(again.wait_exit(30s), 0);
+  // The export made while the disk refused writes opens as the sculpt up to it.
+  const std::string other = temp_path("store-ro-other");
+  fs::remove_all(other);
+  Sculptd opened({"--open", rescue, "--state-dir", other, "--socket", temp_path("store-ro-3.sock")});
+  ASSERT_TRUE(opened.wait_for_log("sculptd ready", 60s)) << opened.log();
+  const auto rec = parse_recovery(opened.log());
+  ASSERT_TRUE(rec) << opened.log();
+  EXPECT_GE(rec->tick + 1, exported_at) << opened.log();
+  opened.signal(SIGTERM);
+  EXPECT_EQ(opened.wait_exit(30s), 0);
+  fs::remove_all(other);
+  ::unlink(rescue.c_str());
 }
 
 TEST(Frozen, UndoRedoAndHistoryAnswerWhileTheDiskIsFrozen) {
