@@ -16,7 +16,8 @@
 // in loops 1 and 4 when its index is even, in loops 2 and 3 when odd
 // (ABBA): every phase is measured as often with an export as without.
 // `--no-export` runs the same schedule exporting nothing: the two columns
-// then show what the schedule alone does.
+// then show what the schedule alone does. EXPORT_JITTER_DEBUG=1 prints each
+// window's overruns (stderr).
 //
 //   export_jitter_bench SCENE SESSION [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]
 // SCENE is a scene file; with --subdivisions K its icospheres are rebuilt
