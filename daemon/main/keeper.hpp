@@ -3,7 +3,8 @@
 // it did (main/journal.hpp); the keeper's journal thread
 //   - takes that from the tap every 10 ms and seals it into a batch, with a
 //     mark of the last tick finished, every commit_every (50 ms), for the
-//     store thread; it never waits on the disk;
+//     store thread, and an export after what it sealed; it never waits on
+//     the disk;
 // its store thread, the only one that touches the store after start(),
 //   - writes the batches (one transaction, fsynced), the scene starts, the
 //     snapshots the replica thread prepared, and the exports, in order; a
@@ -14,7 +15,8 @@
 //   - replays it on the replica (main/replica.hpp), whose edits become the
 //     strokes of the History (main/history.hpp);
 //   - prepares snapshots of the replica (never of the real-time world) every
-//     snapshot_every, at each scene swap, before an export and at the end;
+//     snapshot_every, or once it has stepped replay_work_per_snapshot, and
+//     at the end;
 //   - prepares undo and redo: the images go to the sim thread, which
 //     writes them between ticks, and come back in the journal. Neither
 //     waits on the disk.
@@ -121,7 +123,7 @@ struct KeeperStats {
   std::uint64_t snapshots = 0;
   std::uint64_t snapshot_state_bytes = 0;  // the last one's, before encoding
   std::uint64_t snapshot_stored_bytes = 0; // ...and encoded (its new blobs too)
-  double snapshot_ms = 0;                  // the last one's: state, encoding, commit, checkpoint
+  double snapshot_ms = 0;                  // the last one's: state and encoding (replica thread), commit and checkpoint (store thread)
   std::uint64_t replica_behind = 0;   // ticks the replica was behind at the last look
 };
 
