@@ -20,7 +20,7 @@
 $import "/capnp/c++.capnp".namespace("sculpt::proto");
 
 const protocolMajor :UInt16 = 1;
-const protocolMinor :UInt16 = 6;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault; 5: Session.undo, redo, history, exportSculpt; 6: Device.bus, gain, limit, Session.tuneHaptics
+const protocolMinor :UInt16 = 7;   # 1: Stats.jitterHistogram; 2: Stats.overrunCauses, recentOverruns, simThread; 3: workNvcsw; 4: workNvcswNoFault; 5: Session.undo, redo, history, exportSculpt; 6: Device.bus, gain, limit, Session.tuneHaptics; 7: history's from, limit, History.total, newer
 
 struct Vec3 {
   x @0 :Float32;
@@ -240,13 +240,15 @@ struct HistoryEntry {
 }
 
 # (minor 5) The daemon's stroke history, bounded by a memory budget (the
-# oldest strokes fall off first).
+# oldest strokes fall off first); (minor 7) one page of it.
 struct History {
-  entries @0 :List(HistoryEntry);  # oldest first; at most the newest 16384 (the rest: omitted)
+  entries @0 :List(HistoryEntry);  # oldest first; at most 16384 (the newest, unless a page was asked for)
   budgetBytes @1 :UInt64;
   usedBytes @2 :UInt64;
   dropped @3 :UInt64;              # strokes that fell off the budget so far
   omitted @4 :UInt64;              # older strokes the daemon holds that this list leaves out
+  total @5 :UInt64;                # (minor 7) strokes the daemon holds
+  newer @6 :UInt64;                # (minor 7) newer strokes it holds that this list leaves out
 }
 
 # (minor 5) An export being read: a file the daemon wrote and holds open
@@ -294,7 +296,11 @@ interface Session {
   # load or reset.
   undo @8 (count :UInt32) -> (result :Result, done :UInt32, tick :UInt64);
   redo @9 (count :UInt32) -> (result :Result, done :UInt32, tick :UInt64);
-  history @10 () -> (history :History);
+  # (minor 7) One page: the strokes numbered `from` and up (0: the newest),
+  # at most `limit` (0, or more than 16384: 16384). A client of minor 5 or 6
+  # sends neither and gets the newest 16384, as before. Each call costs the
+  # daemon the page it answers, not the whole history.
+  history @10 (from :UInt32, limit :UInt32) -> (history :History);
   # (minor 5) The whole sculpt (scene, meshes, current state, history) as one
   # .sculpt file, `size` bytes, read through `reader`. At most 2 exports per
   # connection and 8 in all may be open (being written, or held): past that,

@@ -57,7 +57,9 @@ void HapticsEngine::say(int priority, const std::string& message) const {
     log_(priority, message);
     return;
   }
-  std::fprintf(stderr, "<%d>haptics: %s\n", priority, message.c_str());
+  // No sd-daemon prefix: on a terminal or in a file "<4>" is noise, and
+  // only the one who knows where stderr goes can say it is the journal.
+  std::fprintf(stderr, "haptics: %s%s\n", priority <= kWarning ? "warning: " : "", message.c_str());
 }
 
 HapticsEngine::~HapticsEngine() { shutdown(); }

@@ -70,8 +70,9 @@ using PortOpener = std::function<std::unique_ptr<FfPort>(const std::string& node
 using TriggerOpener = std::function<std::optional<DualSenseHidraw>(const std::string& event_node)>;
 
 // Where the engine's few messages go (device opened, no FF, open failed):
-// priority is syslog's (4 warning, 6 info). Empty: stderr with the sd-daemon
-// prefix. sculptd passes its log module.
+// priority is syslog's (4 warning, 6 info). Empty: stderr as plain text
+// ("haptics: warning: ..."). sculptd passes its log module, which adds the
+// sd-daemon prefix ("<4>") only when stderr is the journal.
 using LogSink = std::function<void(int priority, const std::string& message)>;
 
 struct HapticsStats {

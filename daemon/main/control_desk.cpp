@@ -60,13 +60,16 @@ kj::Promise<server::EditOutcome> ControlDesk::edit(bool undo, std::uint32_t coun
 kj::Promise<server::EditOutcome> ControlDesk::undo(std::uint32_t count) { return edit(true, count); }
 kj::Promise<server::EditOutcome> ControlDesk::redo(std::uint32_t count) { return edit(false, count); }
 
-server::History ControlDesk::history() {
+server::History ControlDesk::history(std::uint32_t from, std::uint32_t limit) {
   server::History h;
   if (!keeper_) return h;
-  const HistoryInfo info = keeper_->history();
+  const HistoryInfo info = keeper_->history(from, limit);
   h.budget_bytes = info.budget;
   h.used_bytes = info.used;
   h.dropped = info.dropped;
+  h.total = info.total;
+  h.older = info.older;
+  h.newer = info.newer;
   h.entries.reserve(info.strokes.size());
   for (const StrokeInfo& s : info.strokes) {
     server::HistoryEntry e;

@@ -48,7 +48,7 @@ class ControlDesk final : public server::DaemonControl {
   // The keeper's (none with --no-store: each says so).
   kj::Promise<server::EditOutcome> undo(std::uint32_t count) override;
   kj::Promise<server::EditOutcome> redo(std::uint32_t count) override;
-  server::History history() override;
+  server::History history(std::uint32_t from, std::uint32_t limit) override;
   kj::Promise<server::ExportOutcome> export_sculpt() override;
   server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) override {
     return hub_.tune_haptics(slot, tune);

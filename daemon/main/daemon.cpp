@@ -123,7 +123,9 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
 
     hub_.set_mapping(input::parse_mapping(cfg_.mapping_table, cfg_.file.empty() ? "config" : cfg_.file));
     hub_.use_scene(sims_.scene(), sims_.tools(), sims_.stages(), sims_.rate());
-    haptics_ = std::make_unique<haptics::HapticsThread>(*board_, cfg_.haptics);
+    haptics_ = std::make_unique<haptics::HapticsThread>(
+        *board_, cfg_.haptics, haptics::open_evdev_port,
+        [](int priority, const std::string& message) { log::write_priority(priority, "haptics: " + message); });
     haptics_->start();
     // Pads may lose their FF state over a suspend: reopened at the resume.
     sleep_ = std::make_unique<SleepWatch>([h = haptics_.get()](bool sleeping) {
@@ -171,10 +173,6 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     if (!store_wanted(cfg_)) return;
     tap_ = std::make_unique<JournalTap>();
     KeeperSettings settings = keeper_settings(cfg_);
-    if (!cfg_.store.open.empty()) {
-      store::Store::import_file(settings.dir, cfg_.store.open);
-      log::notice("opened {}: it is now the sculpt in {}", cfg_.store.open, settings.dir.string());
-    }
     try {
       keeper_ = std::make_unique<Keeper>(settings, *tap_);
     } catch (const store::StoreInUse&) {
@@ -192,9 +190,9 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   // The sculpt the store holds, recovered, or the configured scene anew.
   StartPoint install_first_scene() {
     std::optional<Recovered> rec;
-    if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover(termination_pending);
-    if (!rec && !cfg_.store.open.empty())
-      throw std::runtime_error("--open " + cfg_.store.open + ": no sculpt could be recovered from it");
+    // --open: only a file that recovers replaces the saved sculpt (kept beside it).
+    if (keeper_ && !cfg_.store.open.empty()) rec = keeper_->open_file(cfg_.store.open, termination_pending);
+    else if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover(termination_pending);
     if (!rec) {
       if (keeper_) keeper_->start_anew();
       auto bundle = std::make_shared<SceneBundle>(read_bundle(cfg_.scene, simulation_settings(cfg_)));
@@ -234,8 +232,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     log::notice("recovered the sculpt of {} at tick {} (mesh hash {:016x}){}: the snapshot of tick {} and {} journal "
                 "entries, {} strokes of history, in {:.0f} ms; {}{}",
                 r.bundle->file, r.next_tick > 0 ? r.next_tick - 1 : 0, r.hash, r.paused ? ", paused" : "",
-                r.snapshot_tick, r.replayed, r.strokes, r.seconds * 1e3,
-                r.lost.empty() ? "nothing saved was lost" : "not exact, see below", last);
+                r.snapshot_tick, r.replayed, r.strokes, r.seconds * 1e3, r.loss, last);
     for (const std::string& l : r.lost) log::warning("recovery: {}", l);
     if (r.bundle->file != cfg_.scene && cfg_.store.open.empty())
       log::notice("the config names scene {}: start with --fresh to sculpt it instead", cfg_.scene);
@@ -357,6 +354,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     if (const std::string line = blowups_.check(sims_.stats(), sims_.current_tick(), now); !line.empty())
       log::warning("{}", line);
     feed_watchdog(now);
+    hub_.log_held_tunes(now);
     const loop::SimThread* sim = sims_.thread();
     if (!sim) return;
     announce_ready_once();

@@ -139,8 +139,12 @@ server::HapticsTuneOutcome DeviceHub::tune_haptics(std::uint32_t slot, const ser
   if (tune.limit) t.limit = *tune.limit;
   try {
     haptics_->tune(static_cast<int>(slot), t);
-    log::info("device on slot {}: force-feedback gain {:.3g}, limit {:.3g} (until a restart or reload)", slot, t.gain,
-              t.limit);
+    // At info the first, then one line per slot per 10 s with the value in
+    // force (the rest at debug): one client cannot fill the journal.
+    const std::string line = fmt::format(
+        "device on slot {}: force-feedback gain {:.3g}, limit {:.3g} (until a restart or reload)", slot, t.gain, t.limit);
+    if (auto now_line = tunes_log_.changed(slot, line, std::chrono::steady_clock::now())) log::info("{}", *now_line);
+    else log::debug("{}", line);
   } catch (const std::invalid_argument& e) {
     out.error = e.what();
     t = haptics_->tuning(static_cast<int>(slot));
@@ -148,6 +152,10 @@ server::HapticsTuneOutcome DeviceHub::tune_haptics(std::uint32_t slot, const ser
   out.gain = t.gain;
   out.limit = t.limit;
   return out;
+}
+
+void DeviceHub::log_held_tunes(std::chrono::steady_clock::time_point now) {
+  for (const std::string& line : tunes_log_.due(now)) log::info("{}", line);
 }
 
 void DeviceHub::tell_server() {

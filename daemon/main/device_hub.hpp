@@ -15,6 +15,7 @@
 #include "input/device_clock.hpp"
 #include "input/device_manager.hpp"
 #include "input/mapping.hpp"
+#include "main/change_log.hpp"
 #include "main/device_table.hpp"
 #include "main/pipeline.hpp"
 #include "scene/scene.hpp"
@@ -51,6 +52,8 @@ class DeviceHub final : public input::DeviceListener {
   // `sculptctl haptics SLOT --gain G --limit L`: a listed slot's tuning, kept
   // by the haptics thread for the slot (across replug) until a config reload.
   server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune);
+  // Logs the tunings held back by the limit (one line per slot per 10 s).
+  void log_held_tunes(std::chrono::steady_clock::time_point now);
   // Tells the server which device drives each tool (again, after its scene changed).
   void tell_server();
 
@@ -72,6 +75,7 @@ class DeviceHub final : public input::DeviceListener {
   haptics::HapticsThread* haptics_ = nullptr;
   server::Server* server_ = nullptr;
   std::uint64_t dropped_ = 0;
+  ChangeLog tunes_log_{std::chrono::seconds(10)};
 };
 
 }  // namespace sculpt::daemon

@@ -55,6 +55,7 @@ void History::closed(std::uint32_t body, const sim::EditSummary& edit) {
   s.number = next_number_++;
   used_ += s.bytes();
   changed_.push_back(s.number);
+  touched_.push_back(s.number);
   strokes_.push_back(std::move(s));
   fit_budget();
 }
@@ -62,6 +63,7 @@ void History::closed(std::uint32_t body, const sim::EditSummary& edit) {
 void History::forget(const Stroke& s) {
   used_ -= s.bytes();
   gone_.push_back(s.number);
+  touched_.push_back(s.number);
   changed_.erase(std::remove(changed_.begin(), changed_.end(), s.number), changed_.end());
 }
 
@@ -114,6 +116,7 @@ History::Plan History::plan_redo(std::uint32_t count, std::uint32_t scene) {
 
 void History::swapped(Stroke& s) {
   s.undone = !s.undone;
+  touched_.push_back(s.number);
   if (std::find(changed_.begin(), changed_.end(), s.number) == changed_.end()) changed_.push_back(s.number);
 }
 
@@ -126,11 +129,18 @@ Stroke* History::find(std::uint32_t number) {
 std::vector<std::uint32_t> History::take_changed() { return std::exchange(changed_, {}); }
 std::vector<std::uint32_t> History::take_gone() { return std::exchange(gone_, {}); }
 
+std::vector<std::uint32_t> History::take_touched(bool& all) {
+  all = std::exchange(touched_all_, false);
+  return std::exchange(touched_, {});
+}
+
 void History::restore(std::deque<Stroke> strokes, std::uint32_t next_number, std::uint64_t dropped) {
   strokes_ = std::move(strokes);
   open_.clear();
   changed_.clear();
   gone_.clear();
+  touched_.clear();
+  touched_all_ = true;
   used_ = 0;
   for (const Stroke& s : strokes_) used_ += s.bytes();
   next_number_ = next_number;

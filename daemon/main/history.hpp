@@ -79,6 +79,9 @@ class History {
   // numbers of those gone (budget, redo branch).
   std::vector<std::uint32_t> take_changed();
   std::vector<std::uint32_t> take_gone();
+  // For what `history` shows: the numbers of strokes added, swapped or gone
+  // since the last take; `all` when every stroke may have changed (restore).
+  std::vector<std::uint32_t> take_touched(bool& all);
   // A history read back from a store: its strokes in order, the next number.
   void restore(std::deque<Stroke> strokes, std::uint32_t next_number, std::uint64_t dropped);
 
@@ -99,7 +102,8 @@ class History {
   std::uint32_t next_number_ = 1;
   std::deque<Stroke> strokes_;
   std::vector<Open> open_;
-  std::vector<std::uint32_t> changed_, gone_;
+  std::vector<std::uint32_t> changed_, gone_, touched_;
+  bool touched_all_ = true;
 };
 
 }  // namespace sculpt::daemon

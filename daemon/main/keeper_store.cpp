@@ -2,13 +2,16 @@
 // the strokes, as blobs by content) and recovery from it.
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <stdexcept>
 
+#include <fmt/chrono.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "main/journal_codec.hpp"
 #include "main/keeper.hpp"
+#include "main/keeper_jobs.hpp"
 #include "main/log.hpp"
 #include "sim/state_bytes.hpp"
 
@@ -79,22 +82,15 @@ Stroke stroke_from(std::span<const std::byte> bytes) {
 
 }  // namespace
 
+
 // A scene's start as a snapshot of no state: recovery builds the scene's
-// world fresh from the bundle at `first_tick` and replays from there.
-void Keeper::write_scene_start(const JournalEntry& e) {
-  std::shared_ptr<const SceneBundle> bundle;
-  std::uint32_t next_scene = 0;
-  {
-    std::lock_guard lock(mutex_);
-    const auto it = incoming_.find(e.edit);
-    if (it == incoming_.end()) return;
-    bundle = it->second.bundle;
-    next_scene = next_scene_;
-  }
-  const std::vector<std::byte> bytes = bundle->bytes();
+// world fresh from the bundle at `first_tick` and replays from there. Store thread.
+void Keeper::write_scene_start(Job& job) {
+  const JournalEntry& e = job.scene;
+  const std::vector<std::byte> bytes = job.bundle->bytes();
   const std::string key = blob_key("bundle", bytes);
   const nlohmann::json meta = {{"format", kMetaFormat}, {"fresh", true},          {"scene", e.edit},
-                               {"next_scene", next_scene}, {"scene_file", bundle->file}, {"bundle", key},
+                               {"next_scene", job.next_scene}, {"scene_file", job.bundle->file}, {"bundle", key},
                                {"first_tick", e.tick},   {"next_tick", e.tick},    {"paused", false},
                                {"next_stroke", 1},       {"dropped", 0},           {"strokes", nlohmann::json::array()}};
   const std::vector<store::BlobWrite> blobs{{key, bytes}};
@@ -102,33 +98,43 @@ void Keeper::write_scene_start(const JournalEntry& e) {
   store::Status st;
   try {
     check_bundle_size(bytes.size());
-    const store::PreparedSnapshot prepared = store_.prepare_snapshot(e.tick, {}, meta.dump(), blobs, refs);
-    std::lock_guard store_lock(store_mutex_);
-    st = store_.write_snapshot(prepared);
-  } catch (const std::exception& e) {  // no memory to compress them, or more than a store holds
-    st = store::Status{false, false, e.what()};
+    st = store_.write_snapshot(store_.prepare_snapshot(e.tick, {}, meta.dump(), blobs, refs));
+  } catch (const std::bad_alloc&) {
+    st = store::Status{false, false, "no memory to compress the scene's files"};
+  } catch (const std::exception& x) {  // more than a store holds
+    st = store::Status{false, false, x.what()};
   }
-  std::lock_guard lock(mutex_);
-  if (!st.ok && !st.deferred && st.error != last_store_error_) {
-    log::warning("autosave: the start of scene {}: {}; the sculpt goes on in memory and the store is retried",
-                 bundle->file, st.error);
-    last_store_error_ = st.error;
-  }
+  // Snapshots of the scenes before it are obsolete now, even when this one
+  // failed: the journal holds the swap, which a replay cannot cross.
+  scene_started_ = std::max(scene_started_, e.edit);
+  store_written(st, "the start of a scene");
 }
 
+// Replica thread: the replica's state, compressed here (never holding up
+// the store), for the store thread.
 void Keeper::snapshot(const char* why) {
   if (!replica_) return;
   next_snapshot_ = Clock::now() + settings_.snapshot_every;
   replayed_since_snapshot_ = {};
+  {
+    std::vector<std::pair<std::uint64_t, std::vector<std::string>>> written;
+    {
+      std::lock_guard lock(mutex_);
+      written.swap(written_snapshots_);
+    }
+    // The newest snapshot written holds the blobs it refers to: others need not carry them.
+    if (!written.empty()) confirmed_keys_ = {written.back().second.begin(), written.back().second.end()};
+  }
   const auto began = Clock::now();
   const std::vector<std::byte> state = replica_->state();
   std::vector<std::vector<std::byte>> owned;
+  owned.reserve(history_.strokes().size() + 1);  // BlobWrite points into these
   std::vector<store::BlobWrite> blobs;
   std::vector<std::string> refs;
-  if (bundle_key_.empty() || !bundle_stored_) {
+  if (bundle_key_.empty() || !confirmed_keys_.count(bundle_key_)) {
     owned.push_back(replica_->bundle()->bytes());
     bundle_key_ = blob_key("bundle", owned.back());
-    blobs.push_back({bundle_key_, owned.back()});
+    if (!confirmed_keys_.count(bundle_key_)) blobs.push_back({bundle_key_, owned.back()});
   }
   refs.push_back(bundle_key_);
   for (std::uint32_t n : history_.take_gone()) stroke_keys_.erase(n), unsaved_.erase(n);
@@ -137,16 +143,25 @@ void Keeper::snapshot(const char* why) {
   nlohmann::json strokes = nlohmann::json::array();
   for (const Stroke& s : history_.strokes()) {
     auto known = stroke_keys_.find(s.number);
+    std::string key;
+    bool have_bytes = false;
     if (known == stroke_keys_.end() || unsaved_.count(s.number)) {
       owned.push_back(stroke_bytes(s));
-      keys[s.number] = blob_key("stroke", owned.back());
-      blobs.push_back({keys[s.number], owned.back()});
+      key = blob_key("stroke", owned.back());
+      have_bytes = true;
     } else {
-      keys[s.number] = known->second;
+      key = known->second;
     }
-    refs.push_back(keys[s.number]);
-    strokes.push_back(keys[s.number]);
+    if (!confirmed_keys_.count(key)) {
+      if (!have_bytes) owned.push_back(stroke_bytes(s));
+      blobs.push_back({key, owned.back()});
+    }
+    refs.push_back(key);
+    strokes.push_back(key);
+    keys[s.number] = std::move(key);
   }
+  stroke_keys_ = std::move(keys);
+  unsaved_.clear();
   std::uint32_t next_scene = 0;
   {
     std::lock_guard lock(mutex_);
@@ -163,39 +178,51 @@ void Keeper::snapshot(const char* why) {
                                {"next_stroke", history_.next_number()},
                                {"dropped", history_.dropped()},
                                {"strokes", strokes}};
-  // Compressed without the store: the journal thread's commits go on meanwhile.
-  store::Status st;
-  store::Health health;
-  std::uint64_t stored = 0;
+  auto job = std::make_unique<Job>();
+  job->kind = Job::Kind::snapshot;
+  job->scene_number = replica_->scene_number();
+  job->sequence = ++snapshot_sequence_;
+  job->state_bytes = state.size();
+  job->why = why;
   try {
     for (const store::BlobWrite& b : blobs)
       if (b.key == bundle_key_) check_bundle_size(b.bytes.size());
-    const store::PreparedSnapshot prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
-    stored = prepared.data.size();
-    for (const auto& b : prepared.blobs) stored += b.data.size();
-    std::lock_guard store_lock(store_mutex_);
-    st = store_.write_snapshot(prepared);
-    health = store_.health();
-  } catch (const std::exception& e) {  // no memory to compress it, or more than a store holds
-    st = store::Status{false, false, e.what()};
+    job->prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
+  } catch (const std::bad_alloc&) {
+    log::warning("autosave: no memory to compress the snapshot ({}); the next one is tried in {} s", why,
+                 std::chrono::duration_cast<std::chrono::seconds>(settings_.snapshot_every).count());
+    job.reset();
+  } catch (const std::exception& e) {  // more than a store holds: no later snapshot fits either
+    log::warning("autosave: snapshot ({}): {}; the sculpt goes on in memory", why, e.what());
+    job.reset();
   }
-  std::lock_guard lock(mutex_);
-  ++stats_.snapshots;
-  stats_.snapshot_state_bytes = state.size();
-  stats_.snapshot_stored_bytes = stored;
-  stats_.snapshot_ms = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
-  health_ = health;
-  if (st.ok) {
-    bundle_stored_ = true;
-    stroke_keys_ = std::move(keys);
-    unsaved_.clear();
-    log::debug("autosave: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", why,
-               replica_->next_tick(), state.size(), blobs.size(),
-               std::chrono::duration<double, std::milli>(Clock::now() - began).count());
-  } else if (!st.deferred && st.error != last_store_error_) {
-    log::warning("autosave: {}; the sculpt goes on in memory and the store is retried", st.error);
-    last_store_error_ = st.error;
+  if (job) {
+    job->prepare_ms = std::chrono::duration<double, std::milli>(Clock::now() - began).count();
+    queue_job(std::move(job));
   }
+}
+
+// Store thread.
+void Keeper::write_snapshot(Job& job) {
+  if (job.scene_number < scene_started_) return;  // a newer scene's start is written: a replay cannot reach this one
+  const auto began = Clock::now();
+  store::PreparedSnapshot& p = *job.prepared;
+  std::uint64_t stored = p.data.size();
+  for (const auto& b : p.blobs) stored += b.data.size();
+  const store::Status st = store_.write_snapshot(p);
+  const double ms = job.prepare_ms + std::chrono::duration<double, std::milli>(Clock::now() - began).count();
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.snapshots;
+    stats_.snapshot_state_bytes = job.state_bytes;
+    stats_.snapshot_stored_bytes = stored;
+    stats_.snapshot_ms = ms;
+    if (st.ok) written_snapshots_.emplace_back(job.sequence, std::move(p.refs));
+  }
+  if (st.ok)
+    log::debug("autosave: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", job.why, p.tick,
+               job.state_bytes, p.blobs.size(), ms);
+  store_written(st, "snapshot");
 }
 
 // --- recovery: everything read is checked before it is used ---------------------------
@@ -269,7 +296,7 @@ void check_stroke(const Stroke& s, const sim::World<float>& world, const scene::
 // the budget and the count hold, exactly as History::fit_budget would keep
 // them: a blob is read only when it could still fit, so a file cannot make
 // recovery build more than the history holds. `dropped`: the older ones.
-std::deque<Stroke> Keeper::read_strokes(const store::StoredSnapshot& snap, const nlohmann::json& keys,
+std::deque<Stroke> Keeper::read_strokes(store::Store& store, const store::StoredSnapshot& snap, const nlohmann::json& keys,
                                         std::uint32_t next_stroke, std::uint64_t& dropped) {
   if (!keys.is_array()) refuse("its meta's \"strokes\" is not a list");
   std::deque<Stroke> strokes;
@@ -284,7 +311,7 @@ std::deque<Stroke> Keeper::read_strokes(const store::StoredSnapshot& snap, const
     const std::uint64_t room = history_.budget() - used;
     if (size->second > room + kStrokeOverhead) break;  // its images alone would not fit
     std::string why;
-    const auto bytes = store_.read_blob(key, room + kStrokeOverhead, why);
+    const auto bytes = store.read_blob(key, room + kStrokeOverhead, why);
     if (!bytes) refuse(why);
     Stroke s = stroke_from(*bytes);
     if (s.bytes() > room) break;
@@ -314,7 +341,7 @@ std::deque<Stroke> Keeper::read_strokes(const store::StoredSnapshot& snap, const
 // the strokes against the budget before they are read and against the
 // world after. Throws std::invalid_argument (or what building the scene
 // throws) naming what is wrong.
-void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
+void Keeper::use_snapshot(store::Store& store, const store::StoredSnapshot& snap, Recovered& out) {
   nlohmann::json meta;
   try {
     meta = nlohmann::json::parse(snap.meta);
@@ -348,7 +375,7 @@ void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
   scene::Scene scene;
   try {
     {
-      const auto bytes = store_.read_blob(bundle_key, kMaxBundleBytes, why);
+      const auto bytes = store.read_blob(bundle_key, kMaxBundleBytes, why);
       if (!bytes) refuse(why);
       bundle = std::make_shared<const SceneBundle>(SceneBundle::from_bytes(*bytes));
     }
@@ -365,7 +392,7 @@ void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
     const std::size_t expected = replica_->state().size();
     if (snap.raw_size != expected)
       refuse(fmt::format("its state is {} bytes, the scene's is {}", snap.raw_size, expected));
-    const auto state = store_.read_state(snap, expected, why);
+    const auto state = store.read_state(snap, expected, why);
     if (!state) refuse(why);
     replica_->restore_state(*state);
     if (replica_->first_tick() != first_tick || replica_->next_tick() != next_tick || replica_->paused() != paused)
@@ -374,7 +401,7 @@ void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
                          next_tick, first_tick, paused ? " (paused)" : ""));
   }
   std::uint64_t older = 0;
-  std::deque<Stroke> strokes = read_strokes(snap, meta_at(meta, "strokes"), next_stroke, older);
+  std::deque<Stroke> strokes = read_strokes(store, snap, meta_at(meta, "strokes"), next_stroke, older);
   for (const Stroke& s : strokes) {
     if (s.scene == number) check_stroke(s, replica_->world(), scene);
     else if (s.scene == 0 || s.scene > number) refuse(fmt::format("stroke {} is of scene {}", s.number, s.scene));
@@ -383,7 +410,6 @@ void Keeper::use_snapshot(const store::StoredSnapshot& snap, Recovered& out) {
   history_.restore(std::move(strokes), next_stroke, dropped + older);
   next_scene_ = next_scene;
   bundle_key_ = bundle_key;
-  bundle_stored_ = true;
   out.bundle = bundle;
   out.scene = std::move(scene);
   out.snapshot_tick = replica_->next_tick();
@@ -456,58 +482,121 @@ std::string Keeper::replay(const std::vector<store::Record>& journal, const std:
 }
 
 std::optional<Recovered> Keeper::recover(const std::function<bool()>& stop_requested) {
+  std::vector<std::string> why;
+  std::optional<Recovered> rec = recover_store(store_, stop_requested, why, /*own=*/true);
+  if (!rec && !why.empty()) {
+    for (const auto& l : why) log::warning("recovery: {}", l);
+    log::warning("recovery: {} cannot be recovered; starting anew (the store is kept as it is, below)",
+                 store_.database().string());
+    unrecovered_ = true;
+  } else if (!rec && previous_run_ && previous_run_->committed > 0) {
+    log::warning("recovery: the daemon before this one (PID {}) had committed the sculpt to tick {}, but {} holds "
+                 "none: its files were removed or replaced ({:.1f} s of saved sculpt are missing); starting anew",
+                 previous_run_->pid, previous_run_->committed - 1, store_.database().string(),
+                 seconds_of(previous_run_->committed));
+  }
+  if (rec && rec->replay_stopped) restart_store_from(*rec);
+  return rec;
+}
+
+// After a replay that stopped short: the journal past that point would be
+// replayed onto the state the sculpt goes on from, at the next recovery.
+// The store as it is is kept (a generation), and a new one starts with a
+// snapshot of the state recovered, written before anything runs.
+void Keeper::restart_store_from(const Recovered& rec) {
+  const std::filesystem::path kept = store_.set_aside(store::Kept::unrecovered);
+  if (!kept.empty())
+    log::warning("recovery: the store as it was, with the journal it could not replay past tick {}, is kept as {}",
+                 rec.next_tick > 0 ? rec.next_tick - 1 : 0, kept.string());
+  confirmed_keys_.clear();  // the new store holds no blob yet
+  snapshot("recovered");
+  std::deque<std::unique_ptr<Job>> jobs;
+  {
+    std::lock_guard lock(mutex_);
+    jobs.swap(jobs_);
+  }
+  for (auto& job : jobs)
+    if (job->kind == Job::Kind::snapshot) write_snapshot(*job);
+}
+
+Recovered Keeper::open_file(const std::filesystem::path& file, const std::function<bool()>& stop_requested) {
+  const std::string unchanged = fmt::format("; nothing was changed ({} is as it was)", store_.database().string());
+  // The scratch copy's name means nothing to the user: the file's does.
+  const std::string scratch = (store_.dir() / "opening.db").string();
+  const auto named = [&](std::string w) {
+    for (auto at = w.find(scratch); at != std::string::npos; at = w.find(scratch, at)) w.replace(at, scratch.size(), file.string());
+    return w;
+  };
+  std::optional<store::Store> candidate;
+  try {
+    candidate.emplace(store_.open_candidate(file));
+  } catch (const store::StoreError& e) {
+    throw std::runtime_error(fmt::format("--open {}{}", named(e.what()), unchanged));
+  }
+  std::vector<std::string> why;
+  std::optional<Recovered> rec = recover_store(*candidate, stop_requested, why, /*own=*/false);
+  if (!rec) {
+    reset_history();
+    std::string reasons;
+    for (const std::string& w : why) reasons += "; " + named(w);
+    throw std::runtime_error(fmt::format("--open {}: no sculpt could be recovered from it{}{}", file.string(),
+                                         why.empty() ? std::string(" (it holds none)") : reasons, unchanged));
+  }
+  const std::filesystem::path kept = store_.adopt(std::move(*candidate));
+  if (rec->replay_stopped) restart_store_from(*rec);
+  if (kept.empty())
+    log::notice("opened {}: it is now the sculpt in {}", file.string(), store_.dir().string());
+  else
+    log::notice("opened {}: it is now the sculpt in {}; the one it replaces is kept as {} (sculptd --open {} goes "
+                "back to it)",
+                file.string(), store_.dir().string(), kept.string(), kept.string());
+  return std::move(*rec);
+}
+
+// `store`'s sculpt, or nullopt with what made it unusable in `why` (empty:
+// the store holds none). `own`: the store this daemon ran before, which the
+// marker of the run that ended speaks of. Everything read is checked
+// (use_snapshot, replay); RecoveryStopped goes to the caller.
+std::optional<Recovered> Keeper::recover_store(store::Store& store, const std::function<bool()>& stop_requested,
+                                               std::vector<std::string>& why, bool own) {
   const auto began = Clock::now();
   Recovered out;
-  auto forget = [this] {
-    replica_.reset();
-    history_.restore({}, 1, 0);
-    stroke_keys_.clear();
-    bundle_key_.clear();
-    bundle_stored_ = false;
-  };
+  std::unordered_set<std::string> held;  // the blobs the snapshot used refers to: the store holds them
   refused_bundles_.clear();
-  store::Recovery rec = store_.recover([&](const store::StoredSnapshot& snap) -> std::string {
+  store::Recovery rec = store.recover([&](const store::StoredSnapshot& snap) -> std::string {
     if (stop_requested && stop_requested()) throw RecoveryStopped("recovery stopped before it replayed anything");
     try {
       out = Recovered{};
-      use_snapshot(snap, out);
+      use_snapshot(store, snap, out);
+      held.clear();
+      for (const auto& [key, size] : snap.blobs) held.insert(key);
       return {};
     } catch (const RecoveryStopped&) {
-      forget();
+      reset_history();
       throw;
     } catch (const std::exception& e) {  // the snapshot does not fit: the one before it is tried
-      forget();
+      reset_history();
       return e.what();
     }
   });
-  std::vector<std::string> lost = std::move(rec.lost);
   if (!rec.snapshot) {
-    if (!rec.journal.empty() || !lost.empty()) {
-      for (const auto& l : lost) log::warning("recovery: {}", l);
-      log::warning("recovery: {} has no usable snapshot; starting anew", store_.database().string());
+    if (!rec.journal.empty() || !rec.lost.empty()) {
+      why = std::move(rec.lost);
+      why.push_back(fmt::format("{} has no usable snapshot", store.database().string()));
     }
     return std::nullopt;
   }
-  out.lost = std::move(lost);
+  out.lost = std::move(rec.lost);
+  std::string stopped;
   try {
-    const std::string stopped = replay(rec.journal, stop_requested, out);
-    if (!stopped.empty()) {
-      out.lost.push_back(stopped);
-      // What comes after the recovered tick cannot be replayed: left in the
-      // journal it would be replayed after the next snapshot, on a sculpt
-      // that went on without it.
-      const std::uint64_t dropped = store_.drop_journal_after(replica_->next_tick());
-      if (dropped > 0)
-        out.lost.push_back(fmt::format("the journal after tick {} ({} record{}) was dropped from the store",
-                                       replica_->next_tick() > 0 ? replica_->next_tick() - 1 : 0, dropped,
-                                       dropped == 1 ? "" : "s"));
-    }
+    stopped = replay(rec.journal, stop_requested, out);
   } catch (const RecoveryStopped&) {
-    forget();
+    reset_history();
     throw;
   } catch (const std::exception& e) {
-    log::warning("recovery: {}: {}; starting anew", store_.database().string(), e.what());
-    forget();
+    why = std::move(out.lost);
+    why.push_back(fmt::format("{}: {}", store.database().string(), e.what()));
+    reset_history();
     return std::nullopt;
   }
   out.state = replica_->state();
@@ -516,8 +605,75 @@ std::optional<Recovered> Keeper::recover(const std::function<bool()>& stop_reque
   out.paused = replica_->paused();
   out.hash = replica_->world().hash();
   publish_history();
+  confirmed_keys_ = std::move(held);
+  {
+    std::lock_guard lock(mutex_);
+    rate_hz_ = replica_->rate();
+    scene_started_ = replica_->scene_number();
+  }
+  explain_loss(rec.journal, stopped, own, out);
+  out.replay_stopped = !stopped.empty();
   out.seconds = std::chrono::duration<double>(Clock::now() - began).count();
   return out;
+}
+
+namespace {
+std::string utc_text(std::int64_t wall_ns) {
+  const std::time_t secs = static_cast<std::time_t>(wall_ns / 1000000000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  return fmt::format("{:%Y-%m-%d %H:%M:%S} UTC", tm);
+}
+}  // namespace
+
+// What the recovered state lacks, and why: the journal a replay could not
+// get through, and what the marker of the run that ended says the store
+// never got (its files taken away, or writes refused until it ended).
+void Keeper::explain_loss(const std::vector<store::Record>& journal, const std::string& stopped, bool own,
+                          Recovered& out) {
+  double lost_s = 0;
+  // Store ticks are global ticks + 1: a record's is the tick after its own.
+  std::uint64_t journal_end = out.next_tick;
+  for (const store::Record& r : journal) journal_end = std::max(journal_end, r.tick);
+  if (!stopped.empty()) {
+    const double span_ticks = static_cast<double>(settings_.replay_span_limit.count()) * replica_->rate();
+    if (journal_end > out.next_tick && static_cast<double>(journal_end - out.next_tick) <= span_ticks) {
+      const double s = seconds_of(journal_end - out.next_tick);
+      lost_s += s;
+      out.lost.push_back(fmt::format("{}; the journal after it, to tick {}, is lost ({:.1f} s of sculpt)", stopped,
+                                     journal_end - 1, s));
+    } else if (journal_end > out.next_tick) {  // a record no sculpt could have made: no seconds to count
+      out.lost.push_back(fmt::format("{}; the journal after it is not replayed", stopped));
+    } else {
+      out.lost.push_back(stopped);
+    }
+  }
+  if (own && previous_run_) {
+    const SaveState& p = *previous_run_;
+    const std::uint64_t held = std::max(journal_end, out.next_tick);
+    if (p.committed > held) {
+      const double s = seconds_of(p.committed - held);
+      lost_s += s;
+      out.lost.push_back(fmt::format(
+          "the daemon before this one (PID {}) had committed the sculpt to tick {}, but the store holds it only to "
+          "tick {}: {:.1f} s of saved sculpt are missing (the store's files were removed or replaced while it ran, "
+          "or damaged)",
+          p.pid, p.committed - 1, held - 1, s));
+    }
+    if (p.ran > p.committed && (p.failing_since_ns != 0 || p.unnamed)) {
+      const double s = seconds_of(p.ran - p.committed);
+      lost_s += s;
+      const std::string why =
+          p.unnamed ? std::string("the store's files had been removed and could not be written back")
+                    : fmt::format("the store could not be written since {} ({})", utc_text(p.failing_since_ns), p.error);
+      out.lost.push_back(fmt::format("the daemon before this one (PID {}) {} while {}: ticks {}-{} ({:.1f} s of "
+                                     "sculpt, held in its memory) were never saved",
+                                     p.pid, p.ended ? "stopped" : "ended", why, p.committed, p.ran - 1, s));
+    }
+  }
+  if (out.lost.empty()) out.loss = "nothing saved was lost";
+  else if (lost_s > 0) out.loss = fmt::format("{:.1f} s of sculpt lost, see below", lost_s);
+  else out.loss = "not exact, see below";
 }
 
 }  // namespace sculpt::daemon

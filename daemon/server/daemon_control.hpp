@@ -85,10 +85,13 @@ struct HistoryEntry {
   bool undone = false;             // on the redo side
 };
 
+// One page of the history.
 struct History {
   std::vector<HistoryEntry> entries;   // oldest first
   std::uint64_t budget_bytes = 0, used_bytes = 0;
   std::uint64_t dropped = 0;           // strokes that fell off the budget so far
+  std::uint64_t total = 0;             // strokes held
+  std::uint64_t older = 0, newer = 0;  // held strokes before and after this page
 };
 
 struct EditOutcome {
@@ -128,9 +131,11 @@ class DaemonControl {
   // time). EditOutcome.error says why not ("" when done).
   virtual kj::Promise<EditOutcome> undo(std::uint32_t count) = 0;
   virtual kj::Promise<EditOutcome> redo(std::uint32_t count) = 0;
-  // The stroke history now (the server sends the newest
-  // ServerOptions::max_history_entries of it).
-  virtual History history() = 0;
+  // One page of the stroke history now: the strokes numbered `from` and up
+  // (0: the newest), at most `limit` (the server passes 1 ≤ limit ≤
+  // ServerOptions::max_history_entries). Runs on the io loop: it must cost
+  // the page, not the whole history.
+  virtual History history(std::uint32_t from, std::uint32_t limit) = 0;
   // The whole sculpt as one .sculpt file (written off the io loop). The
   // server asks at most ServerOptions::max_exports at a time (open readers
   // included).

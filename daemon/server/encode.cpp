@@ -228,6 +228,7 @@ void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const Devic
 }
 
 void fill_history(proto::History::Builder out, const History& history, std::size_t max_entries) {
+  // A control that answered more than asked: the newest of its page.
   const std::size_t n = std::min(history.entries.size(), max_entries);
   const std::size_t first = history.entries.size() - n;
   auto list = out.initEntries(static_cast<unsigned>(n));
@@ -248,7 +249,9 @@ void fill_history(proto::History::Builder out, const History& history, std::size
   out.setBudgetBytes(history.budget_bytes);
   out.setUsedBytes(history.used_bytes);
   out.setDropped(history.dropped);
-  out.setOmitted(first);
+  out.setOmitted(history.older + first);
+  out.setTotal(std::max<std::uint64_t>(history.total, history.older + history.entries.size() + history.newer));
+  out.setNewer(history.newer);
 }
 
 loop::StatsSnapshot stats_from(proto::Stats::Reader in) {

@@ -18,8 +18,9 @@ void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, c
 void fill_stats(proto::Stats::Builder out, const DaemonStatus& status);
 void fill_devices(capnp::List<proto::Device>::Builder out, std::span<const DeviceEntry> devices);
 void set_bounds(proto::Aabb::Builder out, const std::array<float, 6>& lo_hi);
-// The newest `max_entries` strokes of `history` (oldest first), its budget,
-// and how many older ones were left out (History.omitted).
+// A page of the history (at most its newest `max_entries`, oldest first),
+// its budget, and how many older and newer strokes were left out
+// (History.omitted, newer).
 void fill_history(proto::History::Builder out, const History& history, std::size_t max_entries);
 
 // Reads a proto::Stats back into the stats JSON's snapshot (sculptctl status --json).

@@ -96,7 +96,8 @@ class SessionImpl final : public proto::Session::Server {
   kj::Promise<void> undo(UndoContext context) override { return edit(context, false); }
   kj::Promise<void> redo(RedoContext context) override { return edit(context, true); }
   kj::Promise<void> history(HistoryContext context) override {
-    return answer([&] { server_.fill_history(context.getResults().initHistory()); });
+    const auto p = context.getParams();
+    return answer([&] { server_.fill_history(context.getResults().initHistory(), p.getFrom(), p.getLimit()); });
   }
   kj::Promise<void> exportSculpt(ExportSculptContext context) override {
     if (!server_.admit(client_)) return closing();

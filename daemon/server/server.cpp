@@ -23,6 +23,9 @@
 namespace sculpt::server {
 namespace {
 
+constexpr std::uint64_t kExportReadPiece = 256u << 10;  // bytes per pread of an export
+constexpr off_t kExportReleaseStep = 1 << 20;           // bytes freed per ftruncate of one let go
+
 // A connection is not taken for a silent one before it had this long to say hello.
 constexpr std::int64_t kHelloGraceNs = 1'000'000'000;
 // A refused client has this long to read its answer and close before the server closes it.
@@ -94,6 +97,18 @@ struct Server::Export {
   std::uint64_t size = 0;
   std::int64_t last_read_ns = 0;
   bool open = false;
+  // The file has no name: its last close frees all its pages in one stretch
+  // in the kernel (a millisecond for 35 MB here), which a real-time thread
+  // waking on this CPU waits out. Shrunk in steps first, each short.
+  ~Export() {
+    if (!fd.valid()) return;
+    struct stat st {};
+    if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_nlink != 0) return;
+    for (off_t at = st.st_size; at > 0;) {
+      at = at > kExportReleaseStep ? at - kExportReleaseStep : 0;
+      if (::ftruncate(fd.get(), at) != 0) return;
+    }
+  }
 };
 
 void Server::Errors::taskFailed(kj::Exception&& e) {
@@ -441,8 +456,10 @@ kj::Promise<EditOutcome> Server::edit(std::uint64_t client, bool redo, std::uint
       .attach(kj::mv(answered));
 }
 
-void Server::fill_history(proto::History::Builder out) {
-  server::fill_history(out, control_.history(), options_.max_history_entries);
+void Server::fill_history(proto::History::Builder out, std::uint32_t from, std::uint32_t limit) {
+  const std::size_t most = std::max<std::size_t>(1, options_.max_history_entries);
+  const std::uint32_t page = limit == 0 || limit > most ? static_cast<std::uint32_t>(std::min<std::size_t>(most, UINT32_MAX)) : limit;
+  server::fill_history(out, control_.history(from, page), page);
 }
 
 namespace {
@@ -548,7 +565,10 @@ void Server::read_export(std::uint64_t id, std::uint64_t offset, std::uint32_t c
   auto data = capnp::Orphanage::getForMessageContaining(out).newOrphan<capnp::Data>(static_cast<unsigned>(n));
   std::uint64_t got = 0;
   while (got < n) {
-    const ssize_t r = ::pread(e.fd.get(), data.get().begin() + got, n - got, static_cast<off_t>(offset + got));
+    // In pieces: a read is one stretch in the kernel that the sim thread,
+    // waking on this CPU, waits out whole (files/write_all.hpp).
+    const std::uint64_t piece = std::min<std::uint64_t>(n - got, kExportReadPiece);
+    const ssize_t r = ::pread(e.fd.get(), data.get().begin() + got, piece, static_cast<off_t>(offset + got));
     if (r < 0 && errno == EINTR) continue;
     if (r < 0)
       kj::throwFatalException(

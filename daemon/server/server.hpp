@@ -69,8 +69,8 @@ struct ServerOptions {
   // (past it, refused until one answers).
   std::uint32_t max_edit_count = 10000;
   std::size_t max_pending_edits_per_client = 4;
-  // history: the newest this many strokes (History.omitted counts the rest;
-  // 16384 entries are about 2 MB).
+  // history: at most this many strokes per call (a page; History.omitted
+  // and newer count the rest; 16384 entries are about 2 MB).
   std::size_t max_history_entries = 16384;
   // Exports (each an open file in the daemon until its reader is dropped):
   // those being written or held, per connection and in all; past either the
@@ -160,7 +160,7 @@ class Server {
   // failure of the daemon's promise becomes an outcome with its error.
   std::string edit_refusal(std::uint64_t client, std::uint32_t count) const;
   kj::Promise<EditOutcome> edit(std::uint64_t client, bool redo, std::uint32_t count);
-  void fill_history(proto::History::Builder out);
+  void fill_history(proto::History::Builder out, std::uint32_t from, std::uint32_t limit);
   // An export for a client, once export_refusal has said nothing against it
   // (too many exports). start_export takes a place for it, asks the daemon
   // and resolves when the daemon has answered; open_export then gives "" and

@@ -23,19 +23,31 @@ Connection::Connection(const std::filesystem::path& file, bool create) : file_(f
 
 Connection::Connection(Connection&& o) noexcept : file_(std::move(o.file_)), db_(std::exchange(o.db_, nullptr)) {}
 
-Connection::~Connection() {
+Connection& Connection::operator=(Connection&& o) noexcept {
+  if (this != &o) {
+    close();
+    file_ = std::move(o.file_);
+    db_ = std::exchange(o.db_, nullptr);
+  }
+  return *this;
+}
+
+Connection::~Connection() { close(); }
+
+void Connection::close() {
   // sqlite3_close_v2 defers if a statement is still alive; none should be.
-  if (db_) sqlite3_close_v2(db_);
+  if (db_) sqlite3_close_v2(std::exchange(db_, nullptr));
 }
 
 void Connection::fail(int rc, std::string_view doing) const {
-  const char* msg = db_ ? sqlite3_errmsg(db_) : sqlite3_errstr(rc);
+  const char* msg = db_ ? sqlite3_errmsg(db_) : "the database is closed";
   // The extended code's name says more than the message for I/O errors
   // ("disk I/O error" is every one of them).
   throw Error(rc, fmt::format("{}: {}: {} (SQLite error {}: {})", file_.string(), doing, msg, rc, sqlite3_errstr(rc)));
 }
 
 void Connection::exec(std::string_view sql, std::string_view doing) {
+  if (!db_) fail(SQLITE_MISUSE, doing);
   const std::string s(sql);
   const int rc = sqlite3_exec(db_, s.c_str(), nullptr, nullptr, nullptr);
   if (rc != SQLITE_OK) fail(sqlite3_extended_errcode(db_), doing);
@@ -48,6 +60,7 @@ std::int64_t Connection::query_int(std::string_view sql, std::string_view doing)
 }
 
 Statement::Statement(Connection& db, std::string_view sql) : db_(db) {
+  if (!db.handle()) db.fail(SQLITE_MISUSE, fmt::format("prepare \"{}\"", sql));
   const int rc = sqlite3_prepare_v2(db.handle(), sql.data(), static_cast<int>(sql.size()), &stmt_, nullptr);
   if (rc != SQLITE_OK) db.fail(sqlite3_extended_errcode(db.handle()), fmt::format("prepare \"{}\"", sql));
 }

@@ -33,12 +33,17 @@ class Connection {
   // Opens (creating if asked) the database file; throws Error.
   Connection(const std::filesystem::path& file, bool create);
   Connection(Connection&& o) noexcept;
-  Connection& operator=(Connection&&) = delete;
+  Connection& operator=(Connection&& o) noexcept;
   Connection(const Connection&) = delete;
   ~Connection();
 
   const std::filesystem::path& file() const { return file_; }
   sqlite3* handle() const { return db_; }
+  // Closes the database now (the last connection of a WAL database copies
+  // the WAL into it and deletes the -wal and -shm files by name). Every call
+  // after it fails with SQLITE_MISUSE naming the file.
+  void close();
+  bool is_open() const { return db_ != nullptr; }
 
   // Runs one or more statements without results; throws Error naming `doing`.
   void exec(std::string_view sql, std::string_view doing);

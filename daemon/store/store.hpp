@@ -6,9 +6,18 @@
 // Contracts
 // - Not real-time. Every call may block on the disk (an fsync per commit);
 //   the simulation thread never calls it. One thread at a time uses a Store.
-// - One Store per directory: open() takes an exclusive flock on "<dir>/lock"
-//   (released by the kernel however the process ends) and refuses a second
-//   opener, naming the lock file and the holder's PID.
+// - One Store per directory: open() takes an exclusive flock on the
+//   directory itself and on "<dir>/lock" (released by the kernel however the
+//   process ends) and refuses a second opener, naming the lock file and the
+//   holder's PID (store/dir_lock.hpp).
+// - Never destroys a sculpt: a store replaced (adopt) or started anew
+//   (set_aside) is kept beside it under a generation name
+//   ("previous-<time>-<n>.db", or "unrecovered-..." for one that could not
+//   be recovered); the oldest go only when a newer one of their kind is kept.
+// - Notices when its files are taken away: before every write it checks that
+//   the directory, store.db and store.db-wal are still the files it opened;
+//   when one was removed or replaced it writes its whole content (which its
+//   open connection still reads) back under the names, and Health says so.
 // - Durable: a write that returns ok is committed and fsynced (WAL,
 //   synchronous=FULL), so a crash, SIGKILL or power cut afterwards loses
 //   nothing of it. A crash during a write loses that write only, never an
@@ -45,6 +54,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -164,6 +174,15 @@ struct Health {
   std::uint64_t failures = 0;        // write attempts that failed, ever
   std::size_t pending_records = 0;   // journal records waiting in memory
   std::uint64_t dropped_records = 0; // not written and not kept, ever
+  std::uint64_t relocations = 0;     // times its files were found removed or replaced
+  std::string relocation;            // the last: what was found, and what was done
+  bool unnamed = false;              // its files have no name now (not rewritten yet): a crash loses them
+};
+
+// What a store that is put aside is kept as.
+enum class Kept {
+  previous,     // a sculpt that was recovered or ran: "previous-<time>-<n>.db"
+  unrecovered,  // one that could not be recovered: "unrecovered-<time>-<n>.db"
 };
 
 struct Usage {
@@ -180,12 +199,28 @@ class Store {
   // locked, the file is not a store or has a newer schema, SQLite cannot
   // open it.
   static Store open(const std::filesystem::path& dir, const Limits& limits = {});
+  Store(Store&&) noexcept;
+  Store& operator=(Store&&) = delete;
+  ~Store();
 
-  // Makes `file` (a copy written by export_copy) the store of `dir`, under
-  // the directory's lock; the store it replaces is kept as "previous.db".
-  // Throws StoreError naming the file: unreadable, not a store, a newer
-  // schema, damaged (quick_check), or the store is in use.
-  static void import_file(const std::filesystem::path& dir, const std::filesystem::path& file);
+  // A copy of `file` (a .sculpt written by export_copy) in this store's
+  // directory ("opening.db"), opened as a store of its own: recover() it,
+  // then adopt() it; dropped, it deletes its copy. Nothing of this store is
+  // touched. Throws StoreError naming the file: unreadable, not a store, a
+  // newer schema, damaged (quick_check).
+  Store open_candidate(const std::filesystem::path& file);
+  // Makes `candidate` this directory's store. The store it replaces, unless
+  // empty, is kept as a generation of `kept` (its path returned; empty when
+  // nothing was kept). Throws StoreError; then this store is as it was.
+  std::filesystem::path adopt(Store&& candidate, Kept kept = Kept::previous);
+  // Keeps this store's database as a generation of `kind` and starts an
+  // empty one in its place (a sculpt started anew): the path it is kept
+  // under, empty when the store was empty (nothing kept). Throws StoreError;
+  // then nothing was changed.
+  std::filesystem::path set_aside(Kept kind);
+  // The generations of `kind` kept in `dir`, oldest first.
+  static std::vector<std::filesystem::path> generations(const std::filesystem::path& dir, Kept kind);
+  static constexpr std::size_t kKeptGenerations = 3;  // of each kind
 
   // `blobs`: new ones (a key already stored is kept as it is); `refs`: the
   // keys of every blob this snapshot needs, new or already stored.
@@ -199,6 +234,14 @@ class Store {
                                     std::span<const BlobWrite> blobs, std::span<const std::string> refs) const;
   Status write_snapshot(const PreparedSnapshot& prepared);
   Status append(std::span<const RecordView> records);  // one transaction
+  // Whether the store's files are where they were, putting them back (as a
+  // write would) when not: for a store that has nothing to write for a
+  // while. Not ok (and deferred) only when they could not be put back.
+  Status check_files();
+  // Journal records the caller dropped before they reached the store (its
+  // own memory bound): recorded as a gap with the next write, as the
+  // store's own dropped records are.
+  void record_dropped(std::uint64_t first_tick, std::uint64_t last_tick, std::uint64_t records);
   // The newest snapshot whose state and blobs all decode, and the journal after it.
   Recovery recover();
   // The newest snapshot `judge` takes (at most Limits::max_snapshots_tried
@@ -211,28 +254,33 @@ class Store {
   std::optional<std::vector<std::byte>> read_state(const StoredSnapshot& s, std::uint64_t max_bytes, std::string& why);
   std::optional<std::vector<std::byte>> read_blob(const std::string& key, std::uint64_t max_bytes, std::string& why);
   const Limits& limits() const { return limits_; }
-  // Deletes the journal records of a tick > `tick`: what a recovery could not
-  // replay, so that no later one replays them on a sculpt that went on
-  // without them. Returns how many; 0 when it cannot (a degraded store).
-  std::uint64_t drop_journal_after(std::uint64_t tick);
   // Deletes every snapshot, journal record and blob: a sculpt starts anew
   // (its ticks start again from 0). Throws StoreError.
   void clear();
 
   // A consistent copy of the whole store as one database file (`VACUUM
-  // INTO`): what `sculptctl export` hands out. Throws StoreError.
+  // INTO`): what `sculptctl export` hands out, with the journal records held
+  // in memory (a disk that refuses writes) added to it. Not fsynced (the
+  // caller syncs a copy it keeps). Throws StoreError.
   void export_copy(const std::filesystem::path& file);
 
   Health health() const;
   Usage usage();
-  const std::filesystem::path& database() const { return db_.file(); }
+  const std::filesystem::path& database() const { return file_; }
+  const std::filesystem::path& dir() const { return dir_; }
 
   // Tests only: runs SQL on the store's own connection, to simulate faults
   // (PRAGMA max_page_count, PRAGMA query_only). Throws sqlite::Error.
   void execute_for_testing(std::string_view sql) { db_.exec(sql, "test hook"); }
 
  private:
-  Store(DirLock lock, sqlite::Connection db, const Limits& limits);
+  Store(std::unique_ptr<DirLock> lock, std::filesystem::path file, sqlite::Connection db, const Limits& limits);
+  void remember_files();
+  std::string files_taken() const;
+  void keep_files_named(std::chrono::steady_clock::time_point now);
+  void relocate(const std::string& what);
+  void discard_candidate();
+  bool holds_nothing();
   template <class Write>
   Status attempt(std::string_view doing, Write&& write,
                  std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now());
@@ -249,8 +297,11 @@ class Store {
     std::uint64_t first_tick = 0, last_tick = 0, records = 0;
   };
 
-  DirLock lock_;
+  std::unique_ptr<DirLock> lock_;  // none: a candidate (inside a locked directory)
+  std::filesystem::path dir_, file_;
   sqlite::Connection db_;
+  FileId db_id_, wal_id_;  // what store.db and store.db-wal were when opened
+  std::chrono::steady_clock::time_point relocate_at_{};  // while unnamed: the next try
   Limits limits_;
   std::deque<Record> pending_;
   std::uint64_t pending_bytes_ = 0;

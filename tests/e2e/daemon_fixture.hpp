@@ -12,6 +12,8 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <optional>
+#include <regex>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -66,6 +68,35 @@ inline bool write_all(int fd, const void* data, std::size_t n) {
 using CtlRun = support::CommandRun;
 
 inline CtlRun sculptctl(const std::vector<std::string>& args) { return support::run_command(SCULPTCTL_BIN, args); }
+
+// What a restarted sculptd's log says it recovered.
+struct Recovered {
+  std::uint64_t tick = 0;  // the last tick the recovered state has run
+  std::string hash;
+};
+
+inline std::optional<Recovered> parse_recovery(const std::string& log) {
+  static const std::regex re(R"(recovered the sculpt of \S+ at tick (\d+) \(mesh hash ([0-9a-f]{16})\))");
+  std::smatch m;
+  if (!std::regex_search(log, m, re)) return std::nullopt;
+  return Recovered{std::stoull(m[1]), m[2]};
+}
+
+// An uninterrupted run's mesh hash after `tick` (ticks 0..tick) of `session`
+// on builtin:default.
+inline std::string reference_hash(const std::string& session, std::uint64_t tick, const std::string& name) {
+  const std::string out = temp_path(name + ".hash");
+  char duration[32];
+  std::snprintf(duration, sizeof duration, "%.3f", static_cast<double>(tick + 1) / 1000.0);
+  Sculptd ref({"--scene", "builtin:default", "--input", "replay:" + session, "--duration", duration, "--hash-out",
+               out, "--socket", temp_path(name + ".sock")});
+  if (ref.wait_exit(120s) != 0) return "(the reference run failed: " + ref.log() + ")";
+  std::ifstream in(out);
+  std::string hash;
+  in >> hash;
+  ::unlink(out.c_str());
+  return hash;
+}
 
 // The resident set of a process, kB (0 once it is gone).
 inline std::uint64_t rss_kb(pid_t pid) {

@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-#include <regex>
 #include <thread>
 
 #include <kj/async-io.h>
@@ -30,33 +29,6 @@ std::uint64_t ticks_now(const std::string& socket) {
   auto io = kj::setupAsyncIo();
   client::Connection c(io, socket, "recovery-test");
   return c.session().statusRequest().send().wait(io.waitScope).getStats().getTicks();
-}
-
-struct Recovery {
-  std::uint64_t tick = 0;  // the last tick the recovered state has run
-  std::string hash;
-};
-
-std::optional<Recovery> parse_recovery(const std::string& log) {
-  static const std::regex re(R"(recovered the sculpt of \S+ at tick (\d+) \(mesh hash ([0-9a-f]{16})\))");
-  std::smatch m;
-  if (!std::regex_search(log, m, re)) return std::nullopt;
-  return Recovery{std::stoull(m[1]), m[2]};
-}
-
-// The uninterrupted run's hash after `tick` (ticks 0..tick).
-std::string reference_hash(const std::string& session, std::uint64_t tick, const std::string& name) {
-  const std::string out = temp_path(name + ".hash");
-  char duration[32];
-  std::snprintf(duration, sizeof duration, "%.3f", static_cast<double>(tick + 1) / 1000.0);
-  Sculptd ref({"--scene", "builtin:default", "--input", "replay:" + session, "--duration", duration, "--hash-out",
-               out, "--socket", temp_path(name + ".sock")});
-  EXPECT_EQ(ref.wait_exit(120s), 0) << ref.log();
-  std::ifstream in(out);
-  std::string hash;
-  in >> hash;
-  fs::remove(out);
-  return hash;
 }
 
 TEST(Recovery, ASigkilledSculptComesBackAsTheUninterruptedRunHadIt) {
@@ -79,7 +51,7 @@ TEST(Recovery, ASigkilledSculptComesBackAsTheUninterruptedRunHadIt) {
       run.signal(SIGKILL);
       ASSERT_EQ(run.wait_exit(30s), 128 + SIGKILL);
     }
-    std::optional<Recovery> rec;
+    std::optional<Recovered> rec;
     {
       Sculptd again({"--state-dir", dir, "--socket", socket});
       ASSERT_TRUE(again.wait_for_log("sculptd ready", 60s)) << again.log();

@@ -87,7 +87,14 @@ struct EditArgs {
 };
 enum class Edit { undo, redo };
 void edit(const EditArgs& args, Edit what);
-void history(const DaemonArgs& args);
+inline constexpr std::uint32_t kHistoryDefaultLimit = 100;
+inline constexpr std::uint32_t kHistoryMaxLimit = 16384;  // the daemon's page, at most
+struct HistoryArgs {
+  DaemonArgs daemon;
+  std::uint32_t from = 0;                       // 0: the newest
+  std::uint32_t limit = kHistoryDefaultLimit;
+};
+void history(const HistoryArgs& args);
 
 // `export FILE [--force]` (export.cpp): the whole sculpt as one .sculpt file.
 struct ExportArgs {

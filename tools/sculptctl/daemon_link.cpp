@@ -30,8 +30,9 @@ void with_daemon(const DaemonArgs& args, const std::function<void(client::Connec
     switch (e.kind()) {
       case client::ClientError::Kind::no_daemon:
         fail(kExitNoDaemon, std::string(e.what()) + " (is sculptd running? --socket or $SCULPTD_SOCKET choose another)");
-      case client::ClientError::Kind::incompatible:
-      case client::ClientError::Kind::refused: fail(kExitIncompatible, e.what());
+      case client::ClientError::Kind::incompatible: fail(kExitIncompatible, e.what());
+      // The daemon said no (max_clients): its reason is printed, as for a refused command.
+      case client::ClientError::Kind::refused: fail(kExitCommandFailed, e.what());
       case client::ClientError::Kind::failed: fail(kExitConnection, e.what());
     }
     fail(kExitConnection, e.what());

@@ -5,8 +5,10 @@
 // FILE's directory (or FILE.tmp where the file system has none), fsync'd,
 // then given FILE's name (renamed over it with --force; without it an
 // existing FILE is never replaced, also when it appears meanwhile), and the
-// directory fsync'd. A killed export leaves no FILE and (but for FILE.tmp on
-// such file systems) nothing else. Every error names the file.
+// directory fsync'd. Only a regular file is ever replaced: a device node, a
+// FIFO, a socket, a directory or a symbolic link at FILE is refused by its
+// kind, --force or not. A killed export leaves no FILE and (but for FILE.tmp
+// on such file systems) nothing else. Every error names the file.
 #include <fcntl.h>
 #include <stdio.h>
 #include <sys/stat.h>
@@ -24,6 +26,7 @@
 
 #include "commands.hpp"
 #include "daemon_link.hpp"
+#include "files/regular_file.hpp"
 #include "files/write_all.hpp"
 
 namespace sculpt::ctl {
@@ -32,12 +35,25 @@ namespace {
 
 constexpr std::uint16_t kExportMinor = 5;
 constexpr std::uint32_t kChunk = 4u << 20;  // the daemon's largest answer (max_export_chunk)
+// Written to the file in pieces: a daemon's real-time thread on this CPU
+// waits out each write whole (files/write_all.hpp).
+constexpr std::size_t kWritePiece = 128u << 10;
 
 [[noreturn]] void fail_file(const std::string& file, const std::string& what) {
   fail(kExitCommandFailed, fmt::format("export: {}: {}", file, what));
 }
 
 std::string errno_text(const char* step) { return fmt::format("{}: {}", step, std::strerror(errno)); }
+
+// Refuses what is at `file` unless it is nothing or a regular file: --force
+// replaces a file, never a device node (as root a rename would put a regular
+// file in its place), a FIFO, a socket, a directory or a symbolic link.
+void check_replaceable(const std::string& file) {
+  struct stat st {};
+  if (::lstat(file.c_str(), &st) != 0 || S_ISREG(st.st_mode)) return;
+  fail_file(file, fmt::format("is a {}, not a regular file: export writes or replaces only regular files",
+                              files::kind_of(st.st_mode)));
+}
 
 // The file being written: unnamed (O_TMPFILE) until it is complete, or FILE.tmp.
 class NewFile {
@@ -66,7 +82,8 @@ class NewFile {
   NewFile& operator=(const NewFile&) = delete;
 
   void write(std::string_view bytes) {
-    if (!files::write_all(fd_, bytes)) fail_file(file_, errno_text(named_ ? ("writing " + tmp_).c_str() : "write"));
+    if (!files::write_all(fd_, bytes, kWritePiece))
+      fail_file(file_, errno_text(named_ ? ("writing " + tmp_).c_str() : "write"));
   }
 
   // fsync, name, rename, fsync the directory.
@@ -92,6 +109,7 @@ class NewFile {
     }
     if (::close(std::exchange(fd_, -1)) != 0) fail_file(file_, errno_text("close"));
     if (force_) {
+      check_replaceable(file_);  // again: it may have changed while the sculpt came
       if (::rename(tmp_.c_str(), file_.c_str()) != 0) fail_file(file_, errno_text("cannot replace it"));
     } else if (::renameat2(AT_FDCWD, tmp_.c_str(), AT_FDCWD, file_.c_str(), RENAME_NOREPLACE) != 0) {
       if (errno == EEXIST) fail_file(file_, "exists (--force replaces it)");
@@ -129,11 +147,9 @@ class NewFile {
 void export_sculpt(const ExportArgs& args) {
   if (args.file.empty()) fail(kExitUsage, "export: the file name is empty");
   const std::string& file = args.file;
+  check_replaceable(file);
   struct stat st {};
-  if (::stat(file.c_str(), &st) == 0) {
-    if (S_ISDIR(st.st_mode)) fail_file(file, "is a directory");
-    if (!args.force) fail_file(file, "exists (--force replaces it)");
-  }
+  if (::lstat(file.c_str(), &st) == 0 && !args.force) fail_file(file, "exists (--force replaces it)");
   NewFile out(file, args.force);
   std::uint64_t size = 0;
   with_daemon(args.daemon, [&](client::Connection& c, kj::WaitScope& ws) {

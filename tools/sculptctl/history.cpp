@@ -1,13 +1,16 @@
-// `sculptctl undo [N] | redo [N] [--json]` and `sculptctl history [--json]`:
-// the running daemon's strokes (protocol 1.5). undo/redo print what was done
-// ("undid 2 strokes at tick 12345"); a refusal (nothing to undo, a stroke
-// made before a scene load) is the daemon's error on stderr and exit 1.
+// `sculptctl undo [N] | redo [N] [--json]` and `sculptctl history [--from
+// NUMBER] [--limit N] [--json]`: the running daemon's strokes (protocol 1.5;
+// pages 1.7). undo/redo print what was done ("undid 2 strokes at tick
+// 12345"); a refusal (nothing to undo, a stroke made before a scene load) is
+// the daemon's error on stderr and exit 1. history lists one page: the
+// newest 100 strokes unless asked otherwise.
 #include <algorithm>
 #include <iostream>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include <capnp/message.h>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -18,6 +21,7 @@ namespace sculpt::ctl {
 namespace {
 
 constexpr std::uint16_t kHistoryMinor = 5;  // Session.undo, redo, history, exportSculpt
+constexpr std::uint16_t kPagedHistoryMinor = 7;  // history's from and limit
 
 // 1023 B, 17.8 KiB, 256 MiB: three figures at most.
 std::string bytes_text(std::uint64_t b) {
@@ -39,8 +43,18 @@ std::string tools_text(capnp::List<std::uint32_t>::Reader tools) {
   return out.empty() ? "-" : out;
 }
 
+// What a daemon of minor 5 or 6 (no total, no newer) says, as a page.
+struct PageCounts {
+  std::uint64_t total = 0, older = 0, newer = 0;
+};
+PageCounts counts_of(proto::History::Reader h) {
+  const std::uint64_t listed = h.getEntries().size();
+  return {std::max<std::uint64_t>(h.getTotal(), h.getOmitted() + listed + h.getNewer()), h.getOmitted(), h.getNewer()};
+}
+
 void print_history(proto::History::Reader h) {
   const auto entries = h.getEntries();
+  const PageCounts n = counts_of(h);
   std::uint64_t undone = 0;
   if (entries.size() != 0) {
     struct Row {
@@ -72,9 +86,10 @@ void print_history(proto::History::Reader h) {
     print_row(head, "");
     for (const Row& r : rows) print_row(r, r.undone ? "undone" : "");
   }
-  std::string line = fmt::format("{}", strokes(entries.size() + h.getOmitted()));
+  std::string line = fmt::format("{}", strokes(n.total));
   if (undone != 0) line += fmt::format(" ({} undone: redo brings {} back)", undone, undone == 1 ? "it" : "them");
-  if (h.getOmitted() != 0) line += fmt::format(", the {} oldest not listed", h.getOmitted());
+  if (n.older != 0) line += fmt::format(", the {} oldest not listed", n.older);
+  if (n.newer != 0) line += fmt::format(", the {} newest not listed", n.newer);
   line += fmt::format("; undo data {} of a {} budget", bytes_text(h.getUsedBytes()), bytes_text(h.getBudgetBytes()));
   if (h.getDropped() != 0) line += fmt::format("; {} fell off the budget", strokes(h.getDropped()));
   fmt::print("{}\n", line);
@@ -89,11 +104,14 @@ nlohmann::json history_json(proto::History::Reader h) {
                     {"tools", tools}, {"first_tick", e.getFirstTick()}, {"end_tick", e.getEndTick()},
                     {"vertices", e.getVertices()}, {"bytes", e.getBytes()}, {"undone", e.getUndone()}});
   }
+  const PageCounts n = counts_of(h);
   return {{"strokes", list},
           {"budget_bytes", h.getBudgetBytes()},
           {"used_bytes", h.getUsedBytes()},
           {"dropped", h.getDropped()},
-          {"omitted", h.getOmitted()}};
+          {"omitted", n.older},
+          {"total", n.total},
+          {"newer", n.newer}};
 }
 
 template <class Reply>
@@ -137,12 +155,32 @@ void edit(const EditArgs& args, Edit what) {
   });
 }
 
-void history(const DaemonArgs& args) {
-  with_daemon(args, [&](client::Connection& c, kj::WaitScope& ws) {
+void history(const HistoryArgs& args) {
+  with_daemon(args.daemon, [&](client::Connection& c, kj::WaitScope& ws) {
     require_minor(c, kHistoryMinor, "history");
-    auto reply = c.session().historyRequest().send().wait(ws);
-    if (args.json) std::cout << history_json(reply.getHistory()).dump(2) << "\n";
-    else print_history(reply.getHistory());
+    // An older daemon answers the newest 16384 whatever is asked: a page it cannot give is refused.
+    if (args.from != 0) require_minor(c, kPagedHistoryMinor, "history --from");
+    auto req = c.session().historyRequest();
+    req.setFrom(args.from);
+    req.setLimit(args.limit);
+    auto reply = req.send().wait(ws);
+    capnp::MallocMessageBuilder trimmed;
+    proto::History::Reader h = reply.getHistory();
+    if (h.getEntries().size() > args.limit) {
+      // An older daemon's whole answer: its newest `limit`.
+      auto out = trimmed.initRoot<proto::History>();
+      const unsigned skip = h.getEntries().size() - args.limit;
+      auto list = out.initEntries(args.limit);
+      for (unsigned i = 0; i < args.limit; ++i) list.setWithCaveats(i, h.getEntries()[skip + i]);
+      out.setBudgetBytes(h.getBudgetBytes());
+      out.setUsedBytes(h.getUsedBytes());
+      out.setDropped(h.getDropped());
+      out.setOmitted(h.getOmitted() + skip);
+      out.setTotal(h.getOmitted() + h.getEntries().size());
+      h = out.asReader();
+    }
+    if (args.daemon.json) std::cout << history_json(h).dump(2) << "\n";
+    else print_history(h);
   });
 }
 

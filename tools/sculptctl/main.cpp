@@ -27,7 +27,7 @@ struct Args {
   SaveArgs save;
   LoadArgs load;
   EditArgs undo, redo;
-  DaemonArgs history;
+  HistoryArgs history;
   ExportArgs exported;
   HapticsArgs haptics;
 };
@@ -98,7 +98,11 @@ void add_commands(CLI::App& app, Args& a) {
   }
 
   cmd = app.add_subcommand("history", "the daemon's strokes (tools, mesh, ticks, vertices, undo data) and budget");
-  add_daemon_options(*cmd, a.history);
+  cmd->add_option("--from", a.history.from, "list from stroke NUMBER on (default: the newest)")
+      ->check(CLI::Range(1u, 0xffffffffu));
+  cmd->add_option("--limit", a.history.limit, "at most N strokes (default 100, at most 16384)")
+      ->check(CLI::Range(1u, kHistoryMaxLimit));
+  add_daemon_options(*cmd, a.history.daemon);
   cmd->callback([&a] { history(a.history); });
 
   cmd = app.add_subcommand("export", "write the whole sculpt (scene, meshes, state, history) as one .sculpt file");

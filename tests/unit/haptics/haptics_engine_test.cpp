@@ -698,6 +698,14 @@ TEST_F(Engine, MessagesGoToTheLogSink) {
   EXPECT_EQ(lines[1].second, "no force feedback on /dev/input/missing: cannot open /dev/input/missing");
 }
 
+TEST_F(Engine, WithoutASinkMessagesArePlainTextWithoutThePriorityPrefix) {
+  // stderr may be a terminal: "<4>" is the journal's business (sculptd's log decides).
+  ::testing::internal::CaptureStderr();
+  engine().attach(1, "/dev/input/missing", {{1, kPlane}});
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err, "haptics: warning: no force feedback on /dev/input/missing: cannot open /dev/input/missing\n");
+}
+
 TEST_F(Engine, UnplugForgetsIdsReplugUploadsAgain) {
   auto first = devices["/dev/input/event1"] = fake_device({FF_CONSTANT, FF_RUMBLE}, 16);
   engine().attach(3, "/dev/input/event1", {{0, kPlane}});

@@ -103,6 +103,117 @@ TEST(Keeper, RecoversTheSculptExactlyAfterAStop) {
   EXPECT_EQ(rec->strokes, strokes);
 }
 
+TEST(Keeper, HistoryIsAskedForAPageAndSaysWhatIsOnEitherSide) {
+  const fs::path dir = testing::fresh_dir("history-page");
+  Sculpt s(dir, "two_hands.jsonl");
+  while (!s.rig.session_done()) s.rig.run(100);
+  s.rig.run(3000);
+  s.keeper.stop();
+  const HistoryInfo all = s.keeper.history();
+  ASSERT_GE(all.strokes.size(), 3u);
+  EXPECT_EQ(all.total, all.strokes.size());
+  EXPECT_EQ(all.older + all.newer, 0u);
+  const HistoryInfo newest = s.keeper.history(0, 1);
+  ASSERT_EQ(newest.strokes.size(), 1u);
+  EXPECT_EQ(newest.strokes[0].number, all.strokes.back().number);
+  EXPECT_EQ(newest.older, all.total - 1);
+  EXPECT_EQ(newest.newer, 0u);
+  const HistoryInfo second = s.keeper.history(all.strokes[1].number, 1);
+  ASSERT_EQ(second.strokes.size(), 1u);
+  EXPECT_EQ(second.strokes[0].number, all.strokes[1].number);
+  EXPECT_EQ(second.older, 1u);
+  EXPECT_EQ(second.newer, all.total - 2);
+  const HistoryInfo past = s.keeper.history(all.strokes.back().number + 1, 5);
+  EXPECT_TRUE(past.strokes.empty());
+  EXPECT_EQ(past.older, all.total);
+  EXPECT_EQ(s.keeper.history(0, 100000).strokes.size(), all.strokes.size()) << "a page is at most the keeper's";
+}
+
+TEST(Keeper, WhatTheRunBeforeLeftUnsavedIsSaidAtRecovery) {
+  const fs::path dir = testing::fresh_dir("marker");
+  std::uint64_t next = 0;
+  {
+    Sculpt s(dir);
+    s.rig.run(2000);
+    s.keeper.stop();
+    next = s.rig.next_tick();
+  }
+  EXPECT_FALSE(SaveMarker::read(dir)) << "a run that saved everything leaves nothing to say";
+  {
+    // As a daemon would leave it that ran 3 s past what it got into the
+    // store while writes failed, and whose store lost its last second.
+    SaveMarker m(dir);
+    SaveState st;
+    st.pid = 4242;
+    st.committed = next + 1000;
+    st.ran = next + 4000;
+    st.failing_since_ns = 1'800'000'000'000'000'000;
+    st.error = "store.db: commit: disk I/O error";
+    m.write(st);
+  }
+  JournalTap tap;
+  Keeper again(settings(dir), tap);
+  const std::optional<Recovered> rec = again.recover();
+  ASSERT_TRUE(rec);
+  ASSERT_EQ(rec->lost.size(), 2u);
+  EXPECT_NE(rec->lost[0].find("(PID 4242) had committed the sculpt to tick " + std::to_string(next + 999)),
+            std::string::npos)
+      << rec->lost[0];
+  EXPECT_NE(rec->lost[0].find("1.0 s of saved sculpt are missing"), std::string::npos) << rec->lost[0];
+  EXPECT_NE(rec->lost[1].find("the store could not be written since 2027-01-15"), std::string::npos) << rec->lost[1];
+  EXPECT_NE(rec->lost[1].find("disk I/O error"), std::string::npos) << rec->lost[1];
+  EXPECT_NE(rec->lost[1].find("3.0 s of sculpt, held in its memory) were never saved"), std::string::npos)
+      << rec->lost[1];
+  EXPECT_EQ(rec->loss, "4.0 s of sculpt lost, see below");
+  SaveMarker(dir).remove();
+}
+
+TEST(Keeper, AReplayStoppedShortKeepsTheStoreAndGoesOnFromWhatItRecovered) {
+  const fs::path dir = testing::fresh_dir("stopped");
+  KeeperSettings journal_only = settings(dir);  // only the scene's start is a snapshot
+  journal_only.snapshot_every = std::chrono::hours(1);
+  journal_only.replay_work_per_snapshot = std::chrono::hours(1);
+  {
+    Sculpt s(dir, "push.jsonl", journal_only);
+    s.rig.run(1500);
+    s.keeper.stop();
+  }
+  {
+    store::sqlite::Connection db(dir / "store.db", false);
+    // The snapshot at exit gone (the scene's start and the whole journal stay), a record in the middle damaged.
+    db.exec("DELETE FROM snapshot WHERE id <> (SELECT min(id) FROM snapshot);"
+            "UPDATE journal SET data = x'ffffffff' WHERE seq = (SELECT seq FROM journal ORDER BY seq LIMIT 1 "
+            "OFFSET (SELECT count(*) / 2 FROM journal))",
+            "damage a record");
+  }
+  std::uint64_t tick = 0, hash = 0;
+  {
+    JournalTap tap;
+    Keeper k(settings(dir), tap);
+    const std::optional<Recovered> rec = k.recover();
+    ASSERT_TRUE(rec);
+    EXPECT_TRUE(rec->replay_stopped);
+    ASSERT_FALSE(rec->lost.empty());
+    EXPECT_NE(rec->lost[0].find("is unreadable"), std::string::npos) << rec->lost[0];
+    EXPECT_NE(rec->lost[0].find("s of sculpt)"), std::string::npos) << "how much: " << rec->lost[0];
+    EXPECT_NE(rec->loss.find("s of sculpt lost, see below"), std::string::npos) << rec->loss;
+    tick = rec->next_tick;
+    hash = rec->hash;
+    EXPECT_EQ(store::Store::generations(dir, store::Kept::unrecovered).size(), 1u) << "the store as it was, kept";
+  }
+  // What the sculpt went on from is the store now: a recovery after it
+  // replays nothing of the journal that could not be replayed.
+  JournalTap tap;
+  Keeper again(settings(dir), tap);
+  const std::optional<Recovered> rec = again.recover();
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->lost.empty()) << rec->lost.front();
+  EXPECT_EQ(rec->loss, "nothing saved was lost");
+  EXPECT_EQ(rec->next_tick, tick);
+  EXPECT_EQ(rec->hash, hash);
+  EXPECT_EQ(rec->replayed, 0u);
+}
+
 TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   const fs::path dir = testing::fresh_dir("undo");
   Sculpt s(dir);

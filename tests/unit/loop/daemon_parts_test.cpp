@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "main/change_log.hpp"
 #include "main/device_table.hpp"
 #include "main/watchdog.hpp"
 
@@ -64,6 +65,32 @@ TEST(Watchdog, PingsOnlyWhileTheLoopMovesAndSaysStalledOnce) {
 TEST(Watchdog, WithoutWatchdogSecNothingIsEverDue) {
   Watchdog w(std::nullopt);
   EXPECT_EQ(w.check(Watchdog::Clock::now(), 1, 0.5), Watchdog::Due::nothing);
+}
+
+}  // namespace
+}  // namespace sculpt::daemon
+
+namespace sculpt::daemon {
+namespace {
+
+TEST(ChangeLog, ATorrentOfChangesIsOneLineThenOnePerIntervalEndingWithTheValueInForce) {
+  using namespace std::chrono_literals;
+  ChangeLog log(10s);
+  const ChangeLog::Clock::time_point t0{};
+  std::vector<std::string> lines;
+  for (int i = 0; i < 100000; ++i)
+    if (auto l = log.changed(0, "slot 0: gain " + std::to_string(i), t0 + std::chrono::microseconds(i)))
+      lines.push_back(*l);
+  ASSERT_EQ(lines, std::vector<std::string>{"slot 0: gain 0"}) << "one at once";
+  EXPECT_TRUE(log.due(t0 + 9s).empty()) << "nothing more within the interval";
+  EXPECT_EQ(log.due(t0 + 10s), std::vector<std::string>{"slot 0: gain 99999 (the last of 99999 changes in 10 s)"});
+  EXPECT_TRUE(log.due(t0 + 30s).empty()) << "said once";
+  // Another key has its own interval; a change after a quiet interval is said at once.
+  EXPECT_EQ(log.changed(1, "slot 1: gain 5", t0 + 11s), std::optional<std::string>("slot 1: gain 5"));
+  EXPECT_EQ(log.changed(0, "slot 0: gain 7", t0 + 21s), std::optional<std::string>("slot 0: gain 7"));
+  EXPECT_FALSE(log.changed(0, "slot 0: gain 8", t0 + 22s));
+  EXPECT_EQ(log.changed(0, "slot 0: gain 9", t0 + 32s),
+            std::optional<std::string>("slot 0: gain 9 (1 earlier changes not logged)"));
 }
 
 }  // namespace

@@ -70,7 +70,25 @@ class FakeControl final : public server::DaemonControl {
     redo_counts.push_back(count);
     return edit(count);
   }
-  server::History history() override { return history_now; }
+  // history_now paged as the daemon pages it; what was asked is kept.
+  server::History history(std::uint32_t from, std::uint32_t limit) override {
+    history_asks.emplace_back(from, limit);
+    server::History page = history_now;
+    page.entries.clear();
+    std::size_t first = 0;
+    if (from == 0) {
+      first = history_now.entries.size() > limit ? history_now.entries.size() - limit : 0;
+    } else {
+      while (first < history_now.entries.size() && history_now.entries[first].number < from) ++first;
+    }
+    for (std::size_t i = first; i < history_now.entries.size() && page.entries.size() < limit; ++i)
+      page.entries.push_back(history_now.entries[i]);
+    page.total = history_now.entries.size();
+    page.older = first;
+    page.newer = page.total - first - page.entries.size();
+    return page;
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> history_asks;  // (from, limit)
   // Slot 0 exists; values are checked as the daemon does.
   server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) override {
     server::HapticsTuneOutcome out;

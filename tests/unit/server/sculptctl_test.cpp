@@ -3,6 +3,7 @@
 // print (text and --json), their exit statuses, and the exported file
 // (complete, atomic, never replacing a file without --force).
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -222,6 +223,66 @@ TEST(Sculptctl, ExportWritesTheWholeFileAndNeverReplacesOneWithoutForce) {
   std::sort(names.begin(), names.end());
   EXPECT_EQ(names, (std::vector<std::string>{"my.sculpt", "s.sock"})) << "a temporary file was left behind";
   d.with_control([](FakeControl& c) { EXPECT_EQ(c.exports_asked, 2) << "asked the daemon for a file it may not write"; });
+}
+
+TEST(Sculptctl, HistoryPagesFromAStrokeOrTheNewestAndCountsTheRest) {
+  TempDir dir;
+  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });  // 7, 8, 9
+  auto r = ctl(d, {"history", "--limit", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(has(r.out, "clay (1)") && !has(r.out, "ball (0)")) << "the newest one: " << r.out;
+  EXPECT_TRUE(has(r.out, "3 strokes (1 undone: redo brings it back), the 2 oldest not listed;")) << r.out;
+  r = ctl(d, {"history", "--from", "8", "--limit", "1", "--json"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["strokes"].size(), 1u);
+  EXPECT_EQ(j["strokes"][0]["number"], 8);
+  EXPECT_EQ(j["omitted"], 1);
+  EXPECT_EQ(j["newer"], 1);
+  EXPECT_EQ(j["total"], 3);
+  r = ctl(d, {"history", "--from", "8"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(has(r.out, "3 strokes (1 undone: redo brings it back), the 1 oldest not listed;")) << r.out;
+  // What was asked of the daemon: the page only, the newest 100 by default.
+  d.with_control([](FakeControl& c) {
+    const std::vector<std::pair<std::uint32_t, std::uint32_t>> asked{{0, 1}, {8, 1}, {8, 100}};
+    EXPECT_EQ(c.history_asks, asked);
+  });
+  for (const std::vector<std::string>& bad : std::vector<std::vector<std::string>>{
+           {"history", "--limit", "0"}, {"history", "--limit", "16385"}, {"history", "--from", "0"}}) {
+    r = ctl(d, bad);
+    EXPECT_EQ(r.status, 2) << bad[1] << " " << bad[2] << ": " << r.err;
+    EXPECT_TRUE(has(r.err, bad[1])) << r.err;
+  }
+}
+
+TEST(Sculptctl, ExportForcedReplacesOnlyARegularFileNeverADeviceFifoOrLink) {
+  TempDir dir;
+  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.export_bytes = "a sculpt"; });
+  const fs::path device = dir.path / "null", fifo = dir.path / "fifo", target = dir.path / "target",
+                 link = dir.path / "link";
+  ASSERT_EQ(::mknod(device.c_str(), S_IFCHR | 0666, makedev(1, 3)), 0) << "the tests run as root";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0666), 0);
+  std::ofstream(target) << "kept";
+  fs::create_symlink(target, link);
+  for (const auto& [path, kind] : std::vector<std::pair<fs::path, std::string>>{
+           {device, "character device"}, {fifo, "FIFO"}, {link, "symbolic link"}}) {
+    for (const bool force : {true, false}) {
+      std::vector<std::string> args{"export", path.string()};
+      if (force) args.push_back("--force");
+      const auto r = ctl(d, args);
+      EXPECT_EQ(r.status, 1) << path << ": " << r.out;
+      EXPECT_TRUE(has(r.err, path.string() + ": is a " + kind + ", not a regular file")) << r.err;
+    }
+  }
+  struct stat st {};
+  ASSERT_EQ(::lstat(device.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode)) << "the device node is still one";
+  ASSERT_EQ(::lstat(fifo.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_EQ(read_file(target), "kept");
+  d.with_control([](FakeControl& c) { EXPECT_EQ(c.exports_asked, 0) << "refused before asking the daemon"; });
 }
 
 TEST(Sculptctl, ExportErrorsNameTheFileAndLeaveNothing) {

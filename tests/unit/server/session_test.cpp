@@ -299,6 +299,35 @@ TEST(History, PastTheLimitOnlyTheNewestAreSentAndTheRestCounted) {
   EXPECT_EQ(hist.getOmitted(), 1u);
 }
 
+TEST(History, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
+  server::ServerOptions o;
+  o.max_history_entries = 2;
+  Harness h(o);
+  Client c(h);
+  h.control.history_now = sample_history();  // strokes 7, 8, 9
+  auto req = c.session.historyRequest();
+  req.setFrom(8);
+  req.setLimit(1);
+  auto r = req.send().wait(h.io.waitScope);
+  const auto hist = r.getHistory();
+  ASSERT_EQ(hist.getEntries().size(), 1u);
+  EXPECT_EQ(hist.getEntries()[0].getNumber(), 8u);
+  EXPECT_EQ(hist.getOmitted(), 1u);
+  EXPECT_EQ(hist.getNewer(), 1u);
+  EXPECT_EQ(hist.getTotal(), 3u);
+  // A limit past the server's is the server's; none (an older client) too.
+  auto big = c.session.historyRequest();
+  big.setFrom(7);
+  big.setLimit(1000000);
+  auto whole = big.send().wait(h.io.waitScope);
+  ASSERT_EQ(whole.getHistory().getEntries().size(), 2u);
+  EXPECT_EQ(whole.getHistory().getEntries()[0].getNumber(), 7u);
+  EXPECT_EQ(whole.getHistory().getNewer(), 1u);
+  c.session.historyRequest().send().wait(h.io.waitScope);
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> asked{{8, 1}, {7, 2}, {0, 2}};
+  EXPECT_EQ(h.control.history_asks, asked) << "the control is asked for the page, never for more";
+}
+
 TEST(Export, ReadInChunksOfAtMostTheLimitThenEmptyAtTheEnd) {
   Harness h;
   Client c(h);

@@ -1,6 +1,7 @@
 // daemon/store's blobs (kept while a kept snapshot refers to them, and a
 // snapshot missing one is not used), clearing a store, and a store copied
-// out (export_copy) and made another directory's store (import_file).
+// out (export_copy), opened beside another directory's store and adopted
+// by it (open_candidate, adopt).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -65,7 +66,7 @@ TEST(Store, ClearEmptiesEverything) {
   EXPECT_EQ(blob_count(dir.path()), 0);
 }
 
-TEST(Store, ACopyBecomesAnotherDirectorysStoreAndTheOneItReplacesIsKept) {
+TEST(Store, ACopyIsOpenedBesideTheStoreAndOnlyAdoptedReplacesItWhichIsKept) {
   TempDir from, to, files;
   const auto state = random_bytes(20000, 7);
   {
@@ -78,29 +79,52 @@ TEST(Store, ACopyBecomesAnotherDirectorysStoreAndTheOneItReplacesIsKept) {
     Store old = Store::open(to.path());
     ASSERT_TRUE(old.write_snapshot(1, random_bytes(10, 1), "replaced").ok);
   }
-  Store::import_file(to.path(), files.path() / "x.sculpt");
-  EXPECT_TRUE(fs::exists(to.path() / "previous.db"));
+  fs::path kept;
   {
     Store s = Store::open(to.path());
+    Store candidate = s.open_candidate(files.path() / "x.sculpt");
+    const Recovery c = candidate.recover();
+    ASSERT_TRUE(c.snapshot);
+    EXPECT_EQ(c.snapshot->meta, "exported");
+    const Recovery before = s.recover();
+    ASSERT_TRUE(before.snapshot);
+    EXPECT_EQ(before.snapshot->meta, "replaced") << "a candidate changes nothing of the store";
+    kept = s.adopt(std::move(candidate));
+    ASSERT_FALSE(kept.empty());
+    EXPECT_EQ(kept.parent_path(), to.path());
+    EXPECT_EQ(kept.filename().string().rfind("previous-", 0), 0u) << kept;
+    EXPECT_EQ(Store::generations(to.path(), Kept::previous), std::vector<fs::path>{kept});
     const Recovery r = s.recover();
     ASSERT_TRUE(r.snapshot);
     EXPECT_EQ(r.snapshot->meta, "exported");
     EXPECT_EQ(r.snapshot->state, state);
     EXPECT_EQ(r.journal.size(), 5u);
+    EXPECT_FALSE(fs::exists(to.path() / "opening.db"));
   }
-  // Held by another: refused. Not a store, or not there: refused by name.
-  Store holder = Store::open(to.path());
-  EXPECT_THROW(Store::import_file(to.path(), files.path() / "x.sculpt"), StoreInUse);
-  std::ofstream(files.path() / "junk.sculpt") << "junk";
-  TempDir other;
-  try {
-    Store::import_file(other.path(), files.path() / "junk.sculpt");
-    ADD_FAILURE() << "junk imported";
-  } catch (const StoreError& e) {
-    EXPECT_NE(std::string(e.what()).find("junk.sculpt"), std::string::npos) << e.what();
+  {
+    // The kept one is a sculpt to open again; a candidate dropped leaves no copy.
+    Store s = Store::open(to.path());
+    {
+      Store back = s.open_candidate(kept);
+      const Recovery r = back.recover();
+      ASSERT_TRUE(r.snapshot);
+      EXPECT_EQ(r.snapshot->meta, "replaced");
+    }
+    EXPECT_FALSE(fs::exists(to.path() / "opening.db"));
+    // Not a store, or not there: refused by name, the store as it was, no copy left.
+    std::ofstream(files.path() / "junk.sculpt") << "junk";
+    try {
+      (void)s.open_candidate(files.path() / "junk.sculpt");
+      ADD_FAILURE() << "junk opened";
+    } catch (const StoreError& e) {
+      EXPECT_NE(std::string(e.what()).find("junk.sculpt"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW((void)s.open_candidate(files.path() / "none.sculpt"), StoreError);
+    EXPECT_FALSE(fs::exists(to.path() / "opening.db"));
+    const Recovery r = s.recover();
+    ASSERT_TRUE(r.snapshot);
+    EXPECT_EQ(r.snapshot->meta, "exported");
   }
-  EXPECT_THROW(Store::import_file(other.path(), files.path() / "none.sculpt"), StoreError);
-  EXPECT_FALSE(fs::exists(other.path() / "store.db"));
 }
 
 }  // namespace

@@ -59,6 +59,23 @@ TEST(Faults, ReadOnlyDatabaseFailsSoftlyAndRecovers) {
   EXPECT_TRUE(r.journal.empty());
 }
 
+TEST(Faults, ACopyMadeWhileTheDiskRefusesWritesHoldsWhatIsHeldInMemory) {
+  TempDir dir, files;
+  Store s = Store::open(dir.path(), retry_every_call());
+  ASSERT_TRUE(succeeded(s.write_snapshot(5, random_bytes(100, 1), "snap")));
+  ASSERT_TRUE(succeeded(s.append(views(records(6, 7)))));
+  s.execute_for_testing("PRAGMA max_page_count = 1");  // full: the disk refuses the journal
+  EXPECT_FALSE(s.append(views(records(8, 300))).ok);
+  ASSERT_EQ(s.health().pending_records, 293u);
+  s.export_copy(files.path() / "rescue.sculpt");
+  Store reader = Store::open(files.path());  // a store of its own, to open the copy beside
+  Store copy = reader.open_candidate(files.path() / "rescue.sculpt");
+  const Recovery r = copy.recover();
+  ASSERT_TRUE(r.snapshot);
+  EXPECT_EQ(r.snapshot->meta, "snap");
+  EXPECT_EQ(r.journal, records(6, 300)) << "the records the disk refused are in the copy";
+}
+
 TEST(Faults, AfterAFailureWritesAreDeferredUntilTheRetryIsDue) {
   TempDir dir;
   Limits limits;

@@ -285,15 +285,6 @@ TEST(Untrusted, NothingIsWrittenThatRecoveryWouldNotRead) {
                StoreError);
 }
 
-TEST(Untrusted, TheJournalAfterARecoveredTickCanBeDropped) {
-  TempDir dir;
-  Store s = Store::open(dir.path());
-  ASSERT_TRUE(succeeded(s.write_snapshot(10, random_bytes(100, 1))));
-  ASSERT_TRUE(succeeded(s.append(views(records(11, 30)))));
-  EXPECT_EQ(s.drop_journal_after(20), 10u);
-  EXPECT_EQ(s.recover().journal, records(11, 20));
-}
-
 TEST(Untrusted, ManyGapsAreCountedNotListed) {
   TempDir dir;
   {
