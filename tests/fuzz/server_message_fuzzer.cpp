@@ -49,10 +49,12 @@ class FakeControl final : public server::DaemonControl {
     if (slot != 0) out.error = "no device on slot " + std::to_string(slot);
     return out;
   }
-  server::History history() override {
+  server::History history(std::uint32_t from, std::uint32_t limit) override {
     server::History h;
     h.budget_bytes = 1 << 20;
-    for (std::uint32_t i = 1; i <= 3; ++i) {
+    // Three strokes, paged as the daemon pages them: from stroke `from` (0: the newest `limit`).
+    const std::uint32_t first = from != 0 ? from : (limit >= 3 ? 1 : 4 - limit);
+    for (std::uint32_t i = std::max(first, 1u); i <= 3 && h.entries.size() < limit; ++i) {
       server::HistoryEntry e;
       e.number = i;
       e.mesh_name = "ball";
@@ -60,6 +62,7 @@ class FakeControl final : public server::DaemonControl {
       e.undone = i == 3;
       h.entries.push_back(e);
     }
+    h.total = 3;
     return h;
   }
   kj::Promise<server::ExportOutcome> export_sculpt() override {
