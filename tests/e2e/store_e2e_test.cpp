@@ -21,6 +21,7 @@
 
 #include "daemon_fixture.hpp"
 #include "sculptd_process.hpp"
+#include "support/timing.hpp"
 
 namespace sculpt::e2e {
 namespace {
@@ -56,17 +57,6 @@ void raw_sql(const fs::path& db_file, const std::string& sql) {
   EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
   sqlite3_free(err);
   sqlite3_close(db);
-}
-
-// Waits up to `timeout` for `ok()`.
-template <class Ok>
-bool eventually(Ok ok, std::chrono::milliseconds timeout = 20s) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!ok()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(20ms);
-  }
-  return true;
 }
 
 // A sculpt pushed for `ms` in `dir`, stopped with SIGTERM: its final hash.
@@ -247,7 +237,7 @@ TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
     EXPECT_NE(second.log().find("in use by another process"), std::string::npos) << second.log();
   }
   // The holder writes the lock file again (its PID for the next refusal).
-  EXPECT_TRUE(eventually([&] { return read_text((dir / "lock").string()) == pid + "\n"; }));
+  EXPECT_TRUE(support::wait_until([&] { return read_file((dir / "lock").string()) == pid + "\n"; }, 20s, 20ms));
   fs::remove_all(dir);
   ASSERT_TRUE(first.process->wait_for_log("the store's directory " + dir.string() + " was removed", 20s))
       << first.process->log();

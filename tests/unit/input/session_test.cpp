@@ -4,7 +4,7 @@
 #include <filesystem>
 
 #include "input/session.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 
 namespace sculpt::input {
 namespace {

@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "keep_test_util.hpp"
+#include "test_paths.hpp"
 #include "main/journal_codec.hpp"
 #include "main/keeper.hpp"
 #include "main/replica.hpp"

@@ -9,7 +9,7 @@
 #include <limits>
 #include <random>
 
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

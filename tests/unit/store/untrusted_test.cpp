@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {
