@@ -77,7 +77,7 @@ std::string final_hash(Sculptd& d) {
   return std::regex_search(log, m, re) ? std::string(m[1]) : std::string();
 }
 
-TEST(Store, AnExportedSculptOpensAsTheSameSculptElsewhere) {
+TEST(SculptdStore, AnExportedSculptOpensAsTheSameSculptElsewhere) {
   Dir a("store-a"), b("store-b"), files("store-files");
   fs::create_directories(files.path);
   const std::string file = (files.path / "ball.sculpt").string();
@@ -112,7 +112,7 @@ TEST(Store, AnExportedSculptOpensAsTheSameSculptElsewhere) {
   EXPECT_NE(bad.log().find(junk), std::string::npos) << bad.log();
 }
 
-TEST(Store, TwoDaemonsNeverShareAStore) {
+TEST(SculptdStore, TwoDaemonsNeverShareAStore) {
   Dir d("store-shared");
   Daemon first("shared", {"--state-dir", d.path.string()});
   Sculptd second({"--state-dir", d.path.string(), "--socket", temp_path("second.sock")});
@@ -122,7 +122,7 @@ TEST(Store, TwoDaemonsNeverShareAStore) {
       << second.log();
 }
 
-TEST(Store, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
+TEST(SculptdStore, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
   Dir d("store-blocked");
   fs::create_directories(d.path);
   std::ofstream(d.path / "file") << "a file where the store's directory would be";
@@ -134,7 +134,7 @@ TEST(Store, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
   EXPECT_EQ(sculptctl({"history", "--socket", daemon.socket}).status, 0);
 }
 
-TEST(Store, FreshKeepsTheSculptItReplaces) {
+TEST(SculptdStore, FreshKeepsTheSculptItReplaces) {
   Dir d("store-fresh");
   {
     Daemon first("fresh-1", {"--state-dir", d.path.string()});
@@ -224,7 +224,7 @@ TEST(Open, AStoreThatDoesNotRecoverIsKeptAsItWasAndTheSculptStartsAnew) {
   EXPECT_TRUE(generations(d.path, "previous-").empty());
 }
 
-TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
+TEST(SculptdLock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
   Dir base("lock-gone");
   const fs::path dir = base.path / "state";
   Daemon first("lock-gone-1", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"),
@@ -246,7 +246,7 @@ TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
   EXPECT_NE(second.log().find("in use by another process (PID " + pid + ")"), std::string::npos) << second.log();
 }
 
-TEST(Taken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLosesNothing) {
+TEST(SculptdTaken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLosesNothing) {
   Dir d("taken");
   const std::string session = sessions("bench_sculpt.jsonl");
   std::uint64_t removed_at = 0;

@@ -73,7 +73,7 @@ TEST(GoldenSet, OptionsMakeDifferentImages) {
 }
 
 // Bad input: a clear message naming what was wrong, and no crash.
-TEST(Cli, ErrorsNameWhatWasWrong) {
+TEST(ViewerCli, ErrorsNameWhatWasWrong) {
   const std::string dir = support::fresh_scratch_dir("cli");
   const auto run = [&](std::vector<std::string> args) {
     args.insert(args.begin(), SCULPT_VIEW_BIN);

@@ -255,7 +255,7 @@ TEST(Sleeping, ApproachingToolWakesOnlyItsRegion) {
   EXPECT_TRUE(w.changes().empty());
 }
 
-TEST(ChangeLog, ListsWhatMoved) {
+TEST(WorldChanges, ListsWhatMoved) {
   Press p;
   p.press(50);
   ASSERT_FALSE(p.world.changes().empty());

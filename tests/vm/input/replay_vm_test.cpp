@@ -101,7 +101,7 @@ Recorded replayed_only(const Recorded& events) {
   return out;
 }
 
-TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
+TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   const Session session = make_session();
   const auto file = temp("replay_vm.jsonl");
   write_session(file, session);
@@ -216,7 +216,7 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   }
 }
 
-TEST(Replay, ShippedSessionsPlay) {
+TEST(UinputReplay, ShippedSessionsPlay) {
   // The three (bench_sculpt is the same moves, longer: the unit
   // suite reads it, sculptd's benchmark plays it). A sanitized -O0 build in
   // the emulated guest reads ~3000-frame sessions some 20x slower: it plays
