@@ -4,7 +4,7 @@
 averaged) force against depth from the first touch, per material; the whole
 range on the left, the first 3 mm on the right.
 
-    build/tests/bench/contact_feel --csv | scripts/force_depth_svg.py > docs/images/force_depth.svg
+    build/tests/bench/sim/contact_feel --csv | scripts/force_depth_svg.py > docs/images/force_depth.svg
 """
 import csv
 import sys

@@ -68,12 +68,6 @@ struct DeviceSpec {
   }
   DeviceSpec& ff(std::uint16_t bit) { ff_bits.push_back(bit); return *this; }
   DeviceSpec& effects_max(std::uint32_t n) { ff_effects_max = n; return *this; }
-
-  // A two-stick gamepad with a full set of FF capabilities (constant, rumble,
-  // periodic sine/square, gain, autocenter) and room for 16 effects.
-  static DeviceSpec gamepad();
-  // A pad that can only rumble (like most game controllers).
-  static DeviceSpec rumble_pad();
 };
 
 // --- what the device saw, in order -------------------------------------------

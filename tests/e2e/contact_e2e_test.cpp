@@ -10,7 +10,7 @@ namespace sculpt::e2e {
 namespace {
 
 TEST(Contact, OneConstantEffectUpdatedInPlaceAndARumbleKickOnOnset) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   const std::string stats = temp_path("contact.json");
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml"), "--duration", "10", "--stats-json", stats});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
@@ -45,7 +45,7 @@ TEST(Contact, OneConstantEffectUpdatedInPlaceAndARumbleKickOnOnset) {
 }
 
 TEST(Contact, AStickAtRestTouchesNothing) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml"), "--duration", "1"});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_EQ(d.wait_exit(60s), 0) << d.log();

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "sculptd_process.hpp"
-#include "support/command.hpp"
+#include "support/child_process.hpp"
 
 namespace sculpt::e2e {
 

@@ -9,7 +9,7 @@ namespace sculpt::e2e {
 namespace {
 
 TEST(Devices, RumbleOnlyPadGetsRumbleAndNoConstantForce) {
-  support::VirtualJoystick pad(support::JoystickSpec::rumble_pad());
+  support::VirtualJoystick pad(support::rumble_pad_spec());
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();
@@ -22,7 +22,7 @@ TEST(Devices, RumbleOnlyPadGetsRumbleAndNoConstantForce) {
 }
 
 TEST(Devices, OneEffectPadNeverHoldsTwoEffects) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("one effect pad").effects_max(1));
+  support::VirtualJoystick pad(support::gamepad_spec().named("one effect pad").effects_max(1));
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();
@@ -40,7 +40,7 @@ TEST(Devices, OneEffectPadNeverHoldsTwoEffects) {
 }
 
 TEST(Devices, ADeviceWithoutForceFeedbackStillSculpts) {
-  support::JoystickSpec spec = support::JoystickSpec::gamepad().named("no ff pad");
+  support::JoystickSpec spec = support::gamepad_spec().named("no ff pad");
   spec.ff_bits.clear();
   spec.effects_max(0);
   support::VirtualJoystick pad(spec);

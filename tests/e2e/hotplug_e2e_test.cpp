@@ -8,7 +8,7 @@ namespace sculpt::e2e {
 namespace {
 
 TEST(Hotplug, UnplugAndPlugBackRebindsTheToolAndReuploads) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "sculptd_process.hpp"
-#include "support/command.hpp"
+#include "support/child_process.hpp"
 
 namespace sculpt::e2e {
 namespace {
@@ -33,18 +33,6 @@ void progress(const char* what) {
   std::fflush(stdout);
 }
 
-int run_sculptctl_replay(const std::string& session) {
-  std::vector<std::string> args{SCULPTCTL_BIN, "replay", session, "--quiet"};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid;
-  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
 TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
   const std::string session = std::string(SCULPT_SESSIONS_DIR) + "/push.jsonl";
   const std::string scene = data_path("scenes/e2e_default_coarse.toml");
@@ -58,7 +46,8 @@ TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
   progress("daemon started");
   ASSERT_TRUE(b.wait_for_log("sculptd ready")) << b.log();
   progress("daemon ready");
-  ASSERT_EQ(run_sculptctl_replay(session), 0);
+  const support::CommandRun replay = support::run_command(SCULPTCTL_BIN, {"replay", session, "--quiet"});
+  ASSERT_EQ(replay.status, 0) << replay.err;
   progress("sculptctl replay done");
   ASSERT_TRUE(b.wait_for_log("device clock anchored")) << b.log();
   // "... applies on tick N": the session's first frame's tick.
@@ -86,7 +75,7 @@ TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
   ASSERT_EQ(a.wait_exit(60s), 0) << a.log();
   progress("in-process run done");
 
-  const std::string hash1 = read_text(h1), hash2 = read_text(h2);
+  const std::string hash1 = read_file(h1), hash2 = read_file(h2);
   EXPECT_EQ(hash1.size(), 17u);
   EXPECT_EQ(hash1, hash2) << "in-process replay and uinput replay sculpted different meshes\n" << b.log();
   for (const auto& f : {h1, h2}) std::remove(f.c_str());

@@ -11,7 +11,7 @@ namespace sculpt::e2e {
 namespace {
 
 TEST(Shutdown, SigtermStopsAndErasesEveryEffect) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();
@@ -30,7 +30,7 @@ TEST(Shutdown, SigtermStopsAndErasesEveryEffect) {
 }
 
 TEST(Shutdown, AfterSigkillTheKernelErasesTheEffects) {
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   Sculptd d({"--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   ASSERT_TRUE(press_until_felt(pad)) << d.log();
@@ -44,7 +44,7 @@ TEST(Shutdown, AfterSigkillTheKernelErasesTheEffects) {
 TEST(Shutdown, SighupReloadsAndABrokenConfigIsRefused) {
   const std::string conf = temp_path("hup.conf");
   std::ofstream(conf) << "[haptics]\ngain = 30000\n";
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad());
+  support::VirtualJoystick pad(support::gamepad_spec());
   Sculptd d({"--config", conf, "--scene", data_path("scenes/e2e_ball.toml")});
   ASSERT_TRUE(d.wait_for_log("on slot 0")) << d.log();
   std::ofstream(conf) << "[haptics]\ngain = 40000\n[input]\ndead_zone = 0.1\n";

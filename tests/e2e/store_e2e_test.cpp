@@ -21,6 +21,7 @@
 
 #include "daemon_fixture.hpp"
 #include "sculptd_process.hpp"
+#include "support/timing.hpp"
 
 namespace sculpt::e2e {
 namespace {
@@ -58,17 +59,6 @@ void raw_sql(const fs::path& db_file, const std::string& sql) {
   sqlite3_close(db);
 }
 
-// Waits up to `timeout` for `ok()`.
-template <class Ok>
-bool eventually(Ok ok, std::chrono::milliseconds timeout = 20s) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!ok()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(20ms);
-  }
-  return true;
-}
-
 // A sculpt pushed for `ms` in `dir`, stopped with SIGTERM: its final hash.
 std::string sculpt_in(const fs::path& dir, const std::string& name, int ms, const std::string& session = "push.jsonl") {
   Sculptd d({"--scene", "builtin:default", "--input", "replay:" + sessions(session), "--state-dir", dir.string(),
@@ -87,7 +77,7 @@ std::string final_hash(Sculptd& d) {
   return std::regex_search(log, m, re) ? std::string(m[1]) : std::string();
 }
 
-TEST(Store, AnExportedSculptOpensAsTheSameSculptElsewhere) {
+TEST(SculptdStore, AnExportedSculptOpensAsTheSameSculptElsewhere) {
   Dir a("store-a"), b("store-b"), files("store-files");
   fs::create_directories(files.path);
   const std::string file = (files.path / "ball.sculpt").string();
@@ -122,7 +112,7 @@ TEST(Store, AnExportedSculptOpensAsTheSameSculptElsewhere) {
   EXPECT_NE(bad.log().find(junk), std::string::npos) << bad.log();
 }
 
-TEST(Store, TwoDaemonsNeverShareAStore) {
+TEST(SculptdStore, TwoDaemonsNeverShareAStore) {
   Dir d("store-shared");
   Daemon first("shared", {"--state-dir", d.path.string()});
   Sculptd second({"--state-dir", d.path.string(), "--socket", temp_path("second.sock")});
@@ -132,7 +122,7 @@ TEST(Store, TwoDaemonsNeverShareAStore) {
       << second.log();
 }
 
-TEST(Store, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
+TEST(SculptdStore, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
   Dir d("store-blocked");
   fs::create_directories(d.path);
   std::ofstream(d.path / "file") << "a file where the store's directory would be";
@@ -144,7 +134,7 @@ TEST(Store, AStateDirectoryThatCannotBeUsedKeepsTheSculptInMemory) {
   EXPECT_EQ(sculptctl({"history", "--socket", daemon.socket}).status, 0);
 }
 
-TEST(Store, FreshKeepsTheSculptItReplaces) {
+TEST(SculptdStore, FreshKeepsTheSculptItReplaces) {
   Dir d("store-fresh");
   {
     Daemon first("fresh-1", {"--state-dir", d.path.string()});
@@ -234,7 +224,7 @@ TEST(Open, AStoreThatDoesNotRecoverIsKeptAsItWasAndTheSculptStartsAnew) {
   EXPECT_TRUE(generations(d.path, "previous-").empty());
 }
 
-TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
+TEST(SculptdLock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
   Dir base("lock-gone");
   const fs::path dir = base.path / "state";
   Daemon first("lock-gone-1", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"),
@@ -247,7 +237,7 @@ TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
     EXPECT_NE(second.log().find("in use by another process"), std::string::npos) << second.log();
   }
   // The holder writes the lock file again (its PID for the next refusal).
-  EXPECT_TRUE(eventually([&] { return read_text((dir / "lock").string()) == pid + "\n"; }));
+  EXPECT_TRUE(support::wait_until([&] { return read_file((dir / "lock").string()) == pid + "\n"; }, 20s, 20ms));
   fs::remove_all(dir);
   ASSERT_TRUE(first.process->wait_for_log("the store's directory " + dir.string() + " was removed", 20s))
       << first.process->log();
@@ -256,7 +246,7 @@ TEST(Lock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
   EXPECT_NE(second.log().find("in use by another process (PID " + pid + ")"), std::string::npos) << second.log();
 }
 
-TEST(Taken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLosesNothing) {
+TEST(SculptdTaken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLosesNothing) {
   Dir d("taken");
   const std::string session = sessions("bench_sculpt.jsonl");
   std::uint64_t removed_at = 0;

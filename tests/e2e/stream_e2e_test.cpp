@@ -355,29 +355,12 @@ TEST(Stream, SocketActivationServesThePassedSocket) {
   // the first connection, as sculptd.socket does.
   const char* activate = "/usr/bin/systemd-socket-activate";
   ASSERT_EQ(::access(activate, X_OK), 0) << "systemd (systemd-socket-activate) is a build dependency";
-  const std::string socket = temp_path("activated.sock"), other = temp_path("not-used.sock"),
-                    log = temp_path("activated.log");
+  const std::string socket = temp_path("activated.sock"), other = temp_path("not-used.sock");
   ::unlink(socket.c_str());
   ::unlink(other.c_str());
-  std::vector<std::string> args = {activate, "-l", socket, SCULPTD_BIN, "--scene", "builtin:default",
-                                   "--input", "replay:" + sessions("push.jsonl"), "--socket", other};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = -1;
-  ASSERT_EQ(::posix_spawn(&pid, activate, &fa, nullptr, argv.data(), environ), 0);
-  posix_spawn_file_actions_destroy(&fa);
-  struct Reap {
-    pid_t pid;
-    ~Reap() {
-      ::kill(pid, SIGTERM);
-      int st = 0;
-      ::waitpid(pid, &st, 0);
-    }
-  } reap{pid};
+  support::ChildProcess activated({activate, "-l", socket, SCULPTD_BIN, "--scene", "builtin:default", "--input",
+                                   "replay:" + sessions("push.jsonl"), "--socket", other},
+                                  {.err = support::ChildProcess::Output::capture});
   for (int i = 0; i < 500 && ::access(socket.c_str(), F_OK) != 0; ++i) std::this_thread::sleep_for(10ms);
   {
     auto io = kj::setupAsyncIo();
@@ -387,10 +370,9 @@ TEST(Stream, SocketActivationServesThePassedSocket) {
   }
   EXPECT_NE(::access(other.c_str(), F_OK), 0) << "sculptd bound --socket although systemd passed one";
   // "sculptd ready" comes after the first tick, which may follow the answer.
-  for (int i = 0; i < 500 && read_text(log).find("(socket activation)") == std::string::npos; ++i)
-    std::this_thread::sleep_for(10ms);
-  EXPECT_NE(read_text(log).find("(socket activation)"), std::string::npos) << read_text(log);
-  ::unlink(log.c_str());
+  EXPECT_TRUE(activated.err().wait_for("(socket activation)", 5s)) << activated.err().text();
+  activated.signal(SIGTERM);
+  activated.wait(30s);
   ::unlink(socket.c_str());
 }
 
@@ -475,7 +457,7 @@ TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
     const std::string out = temp_path(std::string("saved.") + ext);
     r = with({"save", out});
     EXPECT_EQ(r.status, 0) << r.err;
-    EXPECT_GT(read_text(out).size(), 100u) << ext;
+    EXPECT_GT(read_file(out).size(), 100u) << ext;
     ::unlink(out.c_str());
   }
   r = with({"save", temp_path("saved.xyz")});
@@ -514,7 +496,7 @@ TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
   const std::string sculpt_file = temp_path("e2e.sculpt");
   r = with({"export", sculpt_file});
   EXPECT_TRUE(r.status == 0 || r.status == 1) << r.err;
-  if (r.status == 0) EXPECT_GT(read_text(sculpt_file).size(), 0u);
+  if (r.status == 0) EXPECT_GT(read_file(sculpt_file).size(), 0u);
   else EXPECT_FALSE(std::ifstream(sculpt_file).good()) << "a failed export left " << sculpt_file;
   ::unlink(sculpt_file.c_str());
 

@@ -66,7 +66,7 @@ std::int64_t journal_rows(const fs::path& dir) {
   return n;
 }
 
-TEST(Untrusted, AJournalRecordFarAheadIsRefusedByNameAndTheDaemonStarts) {
+TEST(SculptdUntrusted, AJournalRecordFarAheadIsRefusedByNameAndTheDaemonStarts) {
   Dir d("untrusted-far");
   sculpt_into(d.path);
   add_mark(d.path, std::int64_t{1} << 62);
@@ -79,7 +79,7 @@ TEST(Untrusted, AJournalRecordFarAheadIsRefusedByNameAndTheDaemonStarts) {
   EXPECT_NE(log.find("is kept as"), std::string::npos) << log;
 }
 
-TEST(Untrusted, SIGTERMStopsALongReplayAndLeavesTheStoreAsItWas) {
+TEST(SculptdUntrusted, SIGTERMStopsALongReplayAndLeavesTheStoreAsItWas) {
   Dir d("untrusted-long");
   sculpt_into(d.path);
   add_mark(d.path, 0, 30'000'000);  // 8 h 20 min of ticks at 1 kHz after the last: within the span, not the time

@@ -7,10 +7,11 @@
 //   pad.wait_for([](const auto& reports) { ... });  // every output report, with its time
 //   auto m = pad.last_motors();                   // the pad's motor bytes, parsed per pad
 //
-// The pads are a table (uhid_pads::all()), one small entry each, like
-// libinput's litest devices: name, bus, ids, report descriptor, the feature
-// reports the driver asks for while probing (answered from the table), and
-// how its output reports carry the motors.
+// The pads are a table (uhid_pads::all()), one small file each
+// (support/uhid_pads/<pad>.cpp), like libinput's litest-device-*.c: name,
+// bus, ids, report descriptor, the feature reports the driver asks for while
+// probing (answered from the table), and how its output reports carry the
+// motors. This header and uhid_pad.cpp are the harness they share.
 //
 // A reader thread answers the driver's UHID_GET_REPORT / UHID_SET_REPORT
 // requests and records every UHID_OUTPUT (the driver's own reports and what
@@ -154,8 +155,5 @@ class UhidPad {
   std::string reader_error_;
   std::thread reader_;
 };
-
-// SCULPT_VM_SLOWDOWN (sanitized builds: 3), or 1.
-double vm_slowdown();
 
 }  // namespace sculpt::support

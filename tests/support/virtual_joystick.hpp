@@ -19,4 +19,11 @@ using uinput::FfUpload;
 using JoystickSpec = uinput::DeviceSpec;
 using VirtualJoystick = uinput::VirtualDevice;
 
+// The devices the tests make (test-only, so not in daemon/uinput).
+// A two-stick gamepad with a full set of FF capabilities (constant, rumble,
+// periodic sine/square, gain, autocenter) and room for 16 effects.
+JoystickSpec gamepad_spec();
+// A pad that can only rumble (like most game controllers).
+JoystickSpec rumble_pad_spec();
+
 }  // namespace sculpt::support

@@ -10,21 +10,26 @@
 #include <fstream>
 #include <sstream>
 
-#include "child.hpp"
+#include "support/child_process.hpp"
+#include "support/scratch_dir.hpp"
 #include "image_compare.hpp"
 
 namespace sculpt::viewtest {
 namespace {
 
+using namespace std::chrono_literals;
+using support::ChildProcess;
+using support::one_log_own_group;
+
 TEST(Demo, QuickRunWritesImagesThatShowTheSculpt) {
-  const std::string dir = make_temp_dir("demo");
+  const std::string dir = support::fresh_scratch_dir("demo");
   const std::string out = dir + "/demo-output";
-  Child demo({SCULPT_DEMO, "--quick", "--no-bootstrap", "--no-build", "--build-dir", SCULPT_BUILD_ROOT, "--out", out},
-             dir + "/demo.txt", {"DISPLAY=", "WAYLAND_DISPLAY="});
+  ChildProcess demo({SCULPT_DEMO, "--quick", "--no-bootstrap", "--no-build", "--build-dir", SCULPT_BUILD_ROOT, "--out", out},
+                    one_log_own_group({"DISPLAY=", "WAYLAND_DISPLAY="}));
   const auto rc = demo.wait(240s);
-  ASSERT_TRUE(rc.has_value()) << "demo still running: " << demo.log();
-  ASSERT_EQ(*rc, 0) << demo.log();
-  EXPECT_NE(demo.log().find("demo: done. In " + out), std::string::npos) << demo.log();
+  ASSERT_TRUE(rc.has_value()) << "demo still running: " << demo.out().text();
+  ASSERT_EQ(*rc, 0) << demo.out().text();
+  EXPECT_NE(demo.out().text().find("demo: done. In " + out), std::string::npos) << demo.out().text();
 
   for (const char* name : {"viewer-a.png", "viewer-b.png"}) {
     const view::Image img = view::read_png(out + "/" + name);
@@ -62,13 +67,13 @@ TEST(Demo, QuickRunWritesImagesThatShowTheSculpt) {
   EXPECT_EQ(listed, frames.size() + 1) << "each frame once, and the last once more for ffmpeg";
   // 20 frames paced at 5 a second: however slowly drawn, at least ~3.4 s.
   EXPECT_GT(shown_s, 1.0) << "the --quick run draws 20 frames at 5 a second";
-  EXPECT_NE(demo.log().find("frames drawn in"), std::string::npos) << "the demo says the real rate: " << demo.log();
+  EXPECT_NE(demo.out().text().find("frames drawn in"), std::string::npos) << "the demo says the real rate: " << demo.out().text();
   const view::Image first = view::read_png(frames.front());
   const view::Image last = view::read_png(frames.back());
   EXPECT_GT(content_fraction(first), 0.05);
   EXPECT_GT(content_fraction(last), 0.05);
   EXPECT_GT(compare(first, last).bad_fraction, 0.001) << "the sequence does not move";
-  if (!HasFailure()) std::filesystem::remove_all(dir);
+  if (HasFailure()) support::keep_scratch_dir();
 }
 
 }  // namespace

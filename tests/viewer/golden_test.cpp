@@ -11,11 +11,16 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "child.hpp"
+#include "support/child_process.hpp"
+#include "support/scratch_dir.hpp"
 #include "image_compare.hpp"
 
 namespace sculpt::viewtest {
 namespace {
+
+using namespace std::chrono_literals;
+using support::ChildProcess;
+using support::one_log_own_group;
 
 struct Case {
   const char* name;
@@ -26,15 +31,15 @@ class Golden : public ::testing::TestWithParam<Case> {};
 
 TEST_P(Golden, MatchesWithinTolerance) {
   const Case& c = GetParam();
-  const std::string dir = make_temp_dir("golden");
+  const std::string dir = support::fresh_scratch_dir("golden");
   const std::string out = dir + "/" + c.name + ".png";
   std::vector<std::string> argv = {SCULPT_VIEW_BIN, "--scene", "builtin:default", "--headless", "--size", "480x270",
                                    "--camera", "20,25", "--snapshot", out, "--quiet"};
   argv.insert(argv.end(), c.flags.begin(), c.flags.end());
-  Child view(argv, dir + "/log.txt");
+  ChildProcess view(argv, one_log_own_group());
   const auto rc = view.wait(60s);
   ASSERT_TRUE(rc.has_value()) << "sculpt-view did not finish";
-  ASSERT_EQ(*rc, 0) << view.log();
+  ASSERT_EQ(*rc, 0) << view.out().text();
   const view::Image got = view::read_png(out);
   const std::string golden = std::string(SCULPT_GOLDEN_DIR) + "/" + c.name + ".png";
   if (const char* update = std::getenv("SCULPT_UPDATE_GOLDEN"); update != nullptr && *update == '1') {
@@ -48,7 +53,7 @@ TEST_P(Golden, MatchesWithinTolerance) {
   const ImageDiff d = compare(got, want);
   EXPECT_TRUE(close_enough(d)) << c.name << ": " << describe(d) << " (kept: " << out << ")";
   EXPECT_GT(content_fraction(got), 0.05) << "nothing drawn in " << out;
-  if (close_enough(d)) std::filesystem::remove_all(dir);
+  if (!close_enough(d)) support::keep_scratch_dir();
 }
 
 INSTANTIATE_TEST_SUITE_P(DefaultScene, Golden,
@@ -68,13 +73,13 @@ TEST(GoldenSet, OptionsMakeDifferentImages) {
 }
 
 // Bad input: a clear message naming what was wrong, and no crash.
-TEST(Cli, ErrorsNameWhatWasWrong) {
-  const std::string dir = make_temp_dir("cli");
+TEST(ViewerCli, ErrorsNameWhatWasWrong) {
+  const std::string dir = support::fresh_scratch_dir("cli");
   const auto run = [&](std::vector<std::string> args) {
     args.insert(args.begin(), SCULPT_VIEW_BIN);
-    Child c(args, dir + "/log.txt");
+    ChildProcess c(args, one_log_own_group());
     const int rc = c.wait(60s).value_or(-1);
-    return std::pair{rc, c.log()};
+    return std::pair{rc, c.out().text()};
   };
   auto [rc, log] = run({"--scene", dir + "/missing.toml", "--snapshot", dir + "/x.png"});
   EXPECT_EQ(rc, 1);

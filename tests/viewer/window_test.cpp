@@ -8,24 +8,29 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "child.hpp"
+#include "support/child_process.hpp"
+#include "support/scratch_dir.hpp"
 #include "image_compare.hpp"
 #include "x11_grab.hpp"
 
 namespace sculpt::viewtest {
 namespace {
 
+using namespace std::chrono_literals;
+using support::ChildProcess;
+using support::one_log_own_group;
+
 class WindowMode : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = make_temp_dir("window");
+    dir_ = support::fresh_scratch_dir("window");
     // -displayfd: Xvfb picks a free display and writes its number to fd 1.
-    xvfb_ = std::make_unique<Child>(std::vector<std::string>{"Xvfb", "-displayfd", "1", "-screen", "0", "800x600x24",
-                                                             "-nolisten", "tcp"},
-                                    dir_ + "/xvfb.txt");
+    xvfb_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{"Xvfb", "-displayfd", "1", "-screen", "0", "800x600x24", "-nolisten", "tcp"},
+        one_log_own_group());
     const auto deadline = std::chrono::steady_clock::now() + 30s;
     while (std::chrono::steady_clock::now() < deadline) {
-      const std::string out = xvfb_->log();
+      const std::string out = xvfb_->out().text();
       const auto nl = out.find('\n');
       if (nl != std::string::npos && nl > 0 && std::isdigit(static_cast<unsigned char>(out[0]))) {
         display_ = ":" + out.substr(0, nl);
@@ -34,11 +39,11 @@ class WindowMode : public ::testing::Test {
       ASSERT_TRUE(xvfb_->running()) << "Xvfb failed: " << out;
       std::this_thread::sleep_for(20ms);
     }
-    ASSERT_FALSE(display_.empty()) << "Xvfb gave no display number: " << xvfb_->log();
+    ASSERT_FALSE(display_.empty()) << "Xvfb gave no display number: " << xvfb_->out().text();
   }
   void TearDown() override {
     xvfb_.reset();
-    if (!HasFailure()) std::filesystem::remove_all(dir_);
+    if (HasFailure()) support::keep_scratch_dir();
   }
 
   view::Image grab_screen() { return grab_root(display_); }
@@ -51,13 +56,13 @@ class WindowMode : public ::testing::Test {
   }
 
   std::string dir_, display_;
-  std::unique_ptr<Child> xvfb_;
+  std::unique_ptr<ChildProcess> xvfb_;
 };
 
 TEST_F(WindowMode, ShowsTheMeshAndClosesOnSigterm) {
-  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10"},
-             dir_ + "/view.txt", env());
-  ASSERT_TRUE(view.wait_for_log("window on x11", 60s)) << view.log();
+  ChildProcess view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10"},
+                    one_log_own_group(env()));
+  ASSERT_TRUE(view.out().wait_for("window on x11", 60s)) << view.out().text();
   // A few frames in, the screen shows the meshes.
   double seen = 0;
   const auto deadline = std::chrono::steady_clock::now() + 30s;
@@ -69,19 +74,19 @@ TEST_F(WindowMode, ShowsTheMeshAndClosesOnSigterm) {
   }
   if (!screen.rgba.empty()) view::write_png(dir_ + "/screen.png", screen);
   EXPECT_GT(seen, 0.01) << "no mesh on the X screen (kept " << dir_ << "/screen.png)";
-  EXPECT_TRUE(view.running()) << view.log();
+  EXPECT_TRUE(view.running()) << view.out().text();
   view.signal(SIGTERM);
-  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
+  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.out().text();
 }
 
 // Keys: 'w' turns the wireframe on, 's' writes a screenshot into --screenshot-dir.
 TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
   const std::string shots = dir_ + "/shots";
   std::filesystem::create_directories(shots);
-  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10",
-              "--screenshot-dir", shots},
-             dir_ + "/view.txt", env());
-  ASSERT_TRUE(view.wait_for_log("window on x11", 60s)) << view.log();
+  ChildProcess view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--fps", "10",
+                     "--screenshot-dir", shots},
+                    one_log_own_group(env()));
+  ASSERT_TRUE(view.out().wait_for("window on x11", 60s)) << view.out().text();
   const auto files = [&] {
     std::vector<std::filesystem::path> all;
     for (const auto& e : std::filesystem::directory_iterator(shots)) all.push_back(e.path());
@@ -101,10 +106,10 @@ TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
   };
   // A screenshot is read once the viewer says it wrote it (the file appears
   // before it is complete).
-  const auto written = [&](const std::filesystem::path& f) { return view.wait_for_log("screenshot " + f.string(), 30s); };
+  const auto written = [&](const std::filesystem::path& f) { return view.out().wait_for("screenshot " + f.string(), 30s); };
   const std::filesystem::path first = new_shot({});
-  ASSERT_FALSE(first.empty()) << view.log();
-  ASSERT_TRUE(written(first)) << view.log();
+  ASSERT_FALSE(first.empty()) << view.out().text();
+  ASSERT_TRUE(written(first)) << view.out().text();
   const view::Image plain = view::read_png(first);
   EXPECT_GT(mesh_colour_fraction(plain), 0.01);
   ASSERT_TRUE(send_key(display_, "sculpt-view", "w"));
@@ -117,24 +122,24 @@ TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
     const std::filesystem::path shot = new_shot(seen);
     if (shot.empty()) break;
     seen.push_back(shot);
-    ASSERT_TRUE(written(shot)) << view.log();
+    ASSERT_TRUE(written(shot)) << view.out().text();
     if (compare(plain, view::read_png(shot)).bad_fraction > 0.01) second = shot;
   }
-  ASSERT_FALSE(second.empty()) << "'w' did not change the picture: " << view.log();
+  ASSERT_FALSE(second.empty()) << "'w' did not change the picture: " << view.out().text();
   const view::Image wire = view::read_png(second);
   EXPECT_GT(compare(plain, wire).bad_fraction, 0.01) << "'w' did not change the picture";
-  EXPECT_NE(view.log().find("screenshot " + shots), std::string::npos) << view.log();
+  EXPECT_NE(view.out().text().find("screenshot " + shots), std::string::npos) << view.out().text();
   view.signal(SIGTERM);
-  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.log();
+  EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.out().text();
 }
 
 TEST_F(WindowMode, SnapshotFromTheWindowShowsTheMesh) {
   const std::string out = dir_ + "/shot.png";
-  Child view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--snapshot", out,
-              "--after-frames", "5", "--boxes"},
-             dir_ + "/view.txt", env());
-  ASSERT_EQ(view.wait(60s).value_or(-1), 0) << view.log();
-  EXPECT_NE(view.log().find("window on x11"), std::string::npos) << view.log();
+  ChildProcess view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--snapshot", out,
+                     "--after-frames", "5", "--boxes"},
+                    one_log_own_group(env()));
+  ASSERT_EQ(view.wait(60s).value_or(-1), 0) << view.out().text();
+  EXPECT_NE(view.out().text().find("window on x11"), std::string::npos) << view.out().text();
   const view::Image img = view::read_png(out);
   EXPECT_EQ(img.width, 640);
   EXPECT_EQ(img.height, 480);

@@ -58,7 +58,7 @@ TEST(DeviceIdentity, ClientSeesNameIdsAxesAndButtons) {
 }
 
 TEST(DeviceInput, AxisAndButtonEventsReachTheClient) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   EvdevClient client(joy.event_node());
 
   joy.move_axes({{ABS_X, 12345}, {ABS_RY, -20000}});
@@ -80,7 +80,7 @@ TEST(DeviceInput, AxisAndButtonEventsReachTheClient) {
 }
 
 TEST(DeviceInput, EventsArriveInOrderWithinAFrame) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   EvdevClient client(joy.event_node());
   joy.emit(EV_ABS, ABS_X, 100);
   joy.emit(EV_KEY, BTN_EAST, 1);
@@ -97,7 +97,7 @@ TEST(DeviceInput, EventsArriveInOrderWithinAFrame) {
 }
 
 TEST(DeviceHotplug, UnplugGivesTheClientEnodev) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   EvdevClient client(joy.event_node());
   ff_effect e = rumble_effect(0x100, 0x100, 10);
   ASSERT_EQ(client.upload(e), 0);
@@ -116,7 +116,7 @@ TEST(DeviceHotplug, UnplugGivesTheClientEnodev) {
 }
 
 TEST(DeviceHotplug, PlugBringsTheSameDeviceBack) {
-  VirtualJoystick joy(JoystickSpec::gamepad().ids(BUS_USB, 0x5c17, 0x0042));
+  VirtualJoystick joy(gamepad_spec().ids(BUS_USB, 0x5c17, 0x0042));
   {
     EvdevClient client(joy.event_node());
     ff_effect e = constant_effect(100, 0, 10);
@@ -145,7 +145,7 @@ TEST(DeviceHotplug, PlugBringsTheSameDeviceBack) {
 }
 
 TEST(DeviceHotplug, RepeatedPlugCyclesStayHealthy) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad());
+  VirtualJoystick joy(rumble_pad_spec());
   for (int i = 0; i < 5; ++i) {
     joy.unplug();
     joy.plug();

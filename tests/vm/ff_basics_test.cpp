@@ -29,7 +29,7 @@ bool has_erase(const FfLog& log, std::int16_t id) {
 
 class FfBasics : public ::testing::Test {
  protected:
-  VirtualJoystick joy{JoystickSpec::gamepad()};
+  VirtualJoystick joy{gamepad_spec()};
   EvdevClient client{joy.event_node()};
 };
 
@@ -187,7 +187,7 @@ TEST_F(FfBasics, ClosingTheClientErasesOnlyItsOwnEffects) {
 }
 
 TEST(FfDevices, RumbleOnlyDeviceRejectsConstant) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad());
+  VirtualJoystick joy(rumble_pad_spec());
   EvdevClient client(joy.event_node());
   EXPECT_FALSE(client.has_ff(FF_CONSTANT));
   EXPECT_TRUE(client.has_ff(FF_RUMBLE));
@@ -203,7 +203,7 @@ TEST(FfDevices, RumbleOnlyDeviceRejectsConstant) {
 }
 
 TEST(FfDevices, SingleEffectDeviceRunsOutOfIdsButUpdatesInPlace) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad().named("one effect pad").effects_max(1));
+  VirtualJoystick joy(rumble_pad_spec().named("one effect pad").effects_max(1));
   EvdevClient client(joy.event_node());
   EXPECT_EQ(client.ff_effects_max(), 1);
 

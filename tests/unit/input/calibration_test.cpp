@@ -4,7 +4,7 @@
 
 #include "input/calibration.hpp"
 #include "input/device_info.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 
 namespace sculpt::input {
 namespace {

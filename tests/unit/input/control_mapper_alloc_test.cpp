@@ -5,7 +5,7 @@
 
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 #include "support/allocation_counter.hpp"
 
 

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "input/replay_feed.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 
 namespace sculpt::input {
 namespace {

@@ -5,7 +5,7 @@
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 
 namespace sculpt::input {
 namespace {

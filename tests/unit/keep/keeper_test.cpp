@@ -12,7 +12,7 @@
 
 #include "main/keeper.hpp"
 #include "main/replica.hpp"
-#include "keep_test_util.hpp"
+#include "test_paths.hpp"
 
 namespace sculpt::daemon {
 namespace {

@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "keep_test_util.hpp"
+#include "test_paths.hpp"
 #include "main/journal_codec.hpp"
 #include "main/keeper.hpp"
 #include "main/replica.hpp"
@@ -248,7 +248,7 @@ struct Opened {
   }
 };
 
-TEST(Untrusted, AGoodStoreRecoversBitForBit) {
+TEST(KeeperUntrusted, AGoodStoreRecoversBitForBit) {
   const fs::path dir = copy_of_made("good");
   const Outcome o = recover(dir);
   expect_the_made_sculpt(o);
@@ -275,7 +275,7 @@ std::string cone_obj() {
   return obj;
 }
 
-TEST(Untrusted, AnOverflowSpringOutOfRangeIsRefusedAndTheSnapshotBeforeIsUsed) {
+TEST(KeeperUntrusted, AnOverflowSpringOutOfRangeIsRefusedAndTheSnapshotBeforeIsUsed) {
   const fs::path dir = testing::fresh_dir("overflow");
   auto bundle = std::make_shared<SceneBundle>(read_bundle("builtin:default", SimulationSettings{}));
   bundle->file = "cone.toml";
@@ -324,7 +324,7 @@ TEST(Untrusted, AnOverflowSpringOutOfRangeIsRefusedAndTheSnapshotBeforeIsUsed) {
 
 // Random bytes over a mesh's positions, velocities, rest shape and springs:
 // refused by name every time, and the snapshot before is used.
-TEST(Untrusted, RandomBytesOverAMeshAreRefusedByName) {
+TEST(KeeperUntrusted, RandomBytesOverAMeshAreRefusedByName) {
   const fs::path dir = copy_of_made("random-mesh");
   Db db(dir);
   const Db::Snapshot s = db.snapshots().front();
@@ -351,7 +351,7 @@ TEST(Untrusted, RandomBytesOverAMeshAreRefusedByName) {
 // world never reads, such as the unused slots of a tool's grab list) a
 // world that steps on without blowing up. Never "recovered" and then
 // blown up.
-TEST(Untrusted, RandomBytesInTheWorldStateAreRefusedOrStepOnWithoutBlowingUp) {
+TEST(KeeperUntrusted, RandomBytesInTheWorldStateAreRefusedOrStepOnWithoutBlowingUp) {
   const fs::path dir = copy_of_made("random");
   Db::Snapshot s;
   {
@@ -394,7 +394,7 @@ TEST(Untrusted, RandomBytesInTheWorldStateAreRefusedOrStepOnWithoutBlowingUp) {
   EXPECT_GT(refused, 0) << refused << " refused, " << stepped << " stepped on";
 }
 
-TEST(Untrusted, DriverAndMapperStatesAreCheckedToo) {
+TEST(KeeperUntrusted, DriverAndMapperStatesAreCheckedToo) {
   const fs::path dir = copy_of_made("driver");
   Db db(dir);
   const Db::Snapshot s = db.snapshots().front();
@@ -417,7 +417,7 @@ TEST(Untrusted, DriverAndMapperStatesAreCheckedToo) {
   EXPECT_TRUE(says(o.rec->lost, "tool driver state: tool 0: scale 1")) << joined(o.rec->lost);
 }
 
-TEST(Untrusted, ASizeOrTickThatDoesNotFitTheSceneIsRefusedByName) {
+TEST(KeeperUntrusted, ASizeOrTickThatDoesNotFitTheSceneIsRefusedByName) {
   const fs::path dir = copy_of_made("sizes");
   Db db(dir);
   const Db::Snapshot s = db.snapshots().front();
@@ -460,7 +460,7 @@ TEST(Untrusted, ASizeOrTickThatDoesNotFitTheSceneIsRefusedByName) {
 
 // The bundle's settings as a config file's: every snapshot shares the blob,
 // so none is usable, and recovery says so and starts anew.
-TEST(Untrusted, TheBundlesSettingsAreHeldToTheConfigsRanges) {
+TEST(KeeperUntrusted, TheBundlesSettingsAreHeldToTheConfigsRanges) {
   const fs::path dir = copy_of_made("bundle");
   std::string key;
   SceneBundle good;
@@ -500,7 +500,7 @@ TEST(Untrusted, TheBundlesSettingsAreHeldToTheConfigsRanges) {
 // One journal record far ahead: the replay stops at it by name (no stepping
 // towards it); the store as it was is kept aside and a new one starts from
 // the state recovered, so the next recovery is whole again.
-TEST(Untrusted, AJournalRecordFarAheadStopsTheReplayByName) {
+TEST(KeeperUntrusted, AJournalRecordFarAheadStopsTheReplayByName) {
   const fs::path dir = copy_of_made("far");
   std::vector<std::byte> mark;
   JournalEntry reached;
@@ -528,7 +528,7 @@ TEST(Untrusted, AJournalRecordFarAheadStopsTheReplayByName) {
 
 // Within the span but more than the wall clock allows: stopped at the cap,
 // exact up to where it got; and a stop asked for ends it.
-TEST(Untrusted, TheReplayIsBoundedInTimeAndStopsWhenAsked) {
+TEST(KeeperUntrusted, TheReplayIsBoundedInTimeAndStopsWhenAsked) {
   const fs::path dir = copy_of_made("slow");
   std::vector<std::byte> mark;
   JournalEntry reached;
@@ -558,7 +558,7 @@ TEST(Untrusted, TheReplayIsBoundedInTimeAndStopsWhenAsked) {
   EXPECT_GT(asked, 50);
 }
 
-TEST(Untrusted, AnAttachWithABindingNoDeviceHasStopsTheReplayThere) {
+TEST(KeeperUntrusted, AnAttachWithABindingNoDeviceHasStopsTheReplayThere) {
   const fs::path dir = copy_of_made("binding");
   JournalEntry attach;
   attach.kind = JournalEntry::Kind::message;
@@ -651,7 +651,7 @@ std::uint64_t peak_growth(F&& f) {
 // Strokes far beyond the budget: only what the budget holds is read (newest
 // first), the rest counted as dropped, and recovery's memory grows by the
 // budget, not by what the file lists.
-TEST(Untrusted, AHistoryBeyondTheBudgetIsNotBuilt) {
+TEST(KeeperUntrusted, AHistoryBeyondTheBudgetIsNotBuilt) {
   const fs::path dir = copy_of_made("history");
   const std::size_t count = short_run() ? 1000 : 2000;
   const History_ h = replace_history(dir, count, 0, 6);
@@ -681,7 +681,7 @@ TEST(Untrusted, AHistoryBeyondTheBudgetIsNotBuilt) {
   EXPECT_EQ(o.rec->strokes, 50u);
 }
 
-TEST(Untrusted, AStrokeThatDoesNotFitItsMeshIsRefusedByName) {
+TEST(KeeperUntrusted, AStrokeThatDoesNotFitItsMeshIsRefusedByName) {
   const struct {
     std::function<void(Stroke&, std::size_t)> alter;
     std::string says;

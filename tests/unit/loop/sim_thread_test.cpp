@@ -14,6 +14,7 @@
 #include "loop/tool_driver.hpp"
 #include "sim/shapes.hpp"
 #include "support/allocation_counter.hpp"
+#include "support/timing.hpp"
 
 namespace sculpt::loop {
 namespace {
@@ -51,15 +52,6 @@ struct PressStages : TickStages {
   }
 };
 
-bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout = 10s) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
-
 TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
   auto world = small_world();
   PressStages stages;
@@ -69,7 +61,7 @@ TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
   SimThread thread(world, stages, 1, o);
   const RealtimeResult rt = thread.start();
   EXPECT_TRUE(rt.warnings.empty());
-  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.finished(); }, 10s));
   thread.stop();
   EXPECT_EQ(thread.ticks(), 300u);
   EXPECT_EQ(stages.inputs.load(), 300u);
@@ -99,7 +91,7 @@ TEST(SimThread, APauseRightBeforeAStopIsKept) {
   PressStages stages;
   SimThread thread(world, stages, 1, SimThreadOptions{});
   thread.start();
-  ASSERT_TRUE(wait_until([&] { return thread.ticks() >= 5; }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.ticks() >= 5; }, 10s));
   ASSERT_TRUE(thread.request_pause(true));
   thread.request_stop();
   thread.stop();
@@ -111,7 +103,7 @@ TEST(SimThread, StopIsPromptAndIdempotent) {
   PressStages stages;
   SimThread thread(world, stages, 1, SimThreadOptions{});
   thread.start();
-  ASSERT_TRUE(wait_until([&] { return thread.ticks() >= 5; }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.ticks() >= 5; }, 10s));
   thread.stop();
   EXPECT_TRUE(thread.finished());
   const std::uint64_t n = thread.ticks();
@@ -131,7 +123,7 @@ TEST(SimThread, ATickThatRunsPastTheNextDeadlineIsAnOverrun) {
   static_assert(OverrunLog::kKeep >= 4);
   SimThread thread(world, stages, 1, o);
   thread.start();
-  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.finished(); }, 10s));
   EXPECT_GE(thread.stats().overrun_log.total(), 1u);
   EXPECT_GE(thread.stats().skipped_periods.load(), 1u);  // no burst of catch-up ticks
   EXPECT_EQ(thread.ticks(), o.max_ticks);
@@ -175,7 +167,7 @@ TEST(SimThread, NothingIsAllocatedOnTheSimThreadOnceItRuns) {
   SimThread thread(world, stages, 1, o);
   support::reset_counted_allocations();
   thread.start();
-  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.finished(); }, 10s));
   thread.stop();
   EXPECT_GT(stages.contacts.load(), 0u);
   EXPECT_EQ(support::counted_allocations(), 0) << "the sim thread allocated while ticking";
@@ -190,7 +182,7 @@ TEST(SimThread, WakingEarlyStillRunsEveryTickOnceInOrderWithoutAllocating) {
   SimThread thread(world, stages, 1, o);
   support::reset_counted_allocations();
   thread.start();
-  ASSERT_TRUE(wait_until([&] { return thread.finished(); }));
+  ASSERT_TRUE(support::wait_until([&] { return thread.finished(); }, 10s));
   thread.stop();
   EXPECT_EQ(thread.ticks(), 200u);
   EXPECT_EQ(stages.inputs.load(), 200u);

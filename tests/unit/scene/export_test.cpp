@@ -15,7 +15,7 @@
 #include "scene/errors.hpp"
 #include "scene/mesh_import.hpp"
 #include "sim/shapes.hpp"
-#include "test_support.hpp"
+#include "test_data.hpp"
 
 namespace sculpt::scene {
 namespace {

@@ -11,7 +11,7 @@
 
 #include "scene/isolation.hpp"
 #include "scene/raw_blob.hpp"
-#include "test_support.hpp"
+#include "test_data.hpp"
 
 namespace sculpt::scene {
 namespace {

@@ -6,8 +6,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "support/command.hpp"
-#include "test_support.hpp"
+#include "support/child_process.hpp"
+#include "test_data.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "sim/shapes.hpp"
-#include "test_support.hpp"
+#include "test_data.hpp"
 
 namespace sculpt::scene {
 namespace {

@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,7 +15,9 @@
 #include <nlohmann/json.hpp>
 
 #include "fake_daemon.hpp"
-#include "support/command.hpp"
+#include "files/temp_dir.hpp"
+#include "support/child_process.hpp"
+#include "support/read_file.hpp"
 
 namespace sculpt::test {
 namespace {
@@ -24,16 +25,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // A fresh directory for one test (removed after).
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "sculptctl-test-XXXXXX").string();
-    path = ::mkdtemp(t.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : files::TempDir {
+  TempDir() : files::TempDir("sculptctl-test") {}
 };
 
 support::CommandRun ctl(const FakeDaemon& d, std::vector<std::string> args) {
@@ -42,18 +35,13 @@ support::CommandRun ctl(const FakeDaemon& d, std::vector<std::string> args) {
   return support::run_command(SCULPTCTL_BIN, args);
 }
 
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using support::read_file;
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
 TEST(Sculptctl, UndoAndRedoPassNAndPrintWhatWasDone) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"", 0, 12345}; });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"", 0, 12345}; });
   auto r = ctl(d, {"undo"});
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "undid 1 stroke at tick 12345\n");
@@ -84,7 +72,7 @@ TEST(Sculptctl, UndoAndRedoPassNAndPrintWhatWasDone) {
 
 TEST(Sculptctl, ARefusedUndoIsTheDaemonsErrorOnStderrAndExit1) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"nothing to undo", 0, 0}; });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"nothing to undo", 0, 0}; });
   auto r = ctl(d, {"undo"});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.out, "");
@@ -107,7 +95,7 @@ TEST(Sculptctl, BadCountsAreUsageErrors) {
 
 TEST(Sculptctl, HapticsSetsOnlyWhatIsGivenAndPrintsBoth) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string());
+  FakeDaemon d((dir.path() / "s.sock").string());
   auto r = ctl(d, {"haptics", "0", "--gain", "0.5"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "slot 0: gain 0.5, limit 1\n");
@@ -124,7 +112,7 @@ TEST(Sculptctl, HapticsSetsOnlyWhatIsGivenAndPrintsBoth) {
 
 TEST(Sculptctl, HapticsRefusalsAreNamed) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string());
+  FakeDaemon d((dir.path() / "s.sock").string());
   auto r = ctl(d, {"haptics", "7", "--gain", "0.5"});
   EXPECT_EQ(r.status, 1);
   EXPECT_TRUE(has(r.err, "sculptctl: error: haptics: no device on slot 7")) << r.err;
@@ -140,7 +128,7 @@ TEST(Sculptctl, HapticsRefusalsAreNamed) {
 
 TEST(Sculptctl, HistoryIsATableOfStrokesAndTheBudget) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });
   auto r = ctl(d, {"history"});
   ASSERT_EQ(r.status, 0) << r.err;
   std::vector<std::string> lines;
@@ -168,7 +156,7 @@ TEST(Sculptctl, HistoryIsATableOfStrokesAndTheBudget) {
 
 TEST(Sculptctl, HistoryJsonHasStableSnakeCaseNames) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });
   const auto r = ctl(d, {"history", "--json"});
   ASSERT_EQ(r.status, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
@@ -197,8 +185,8 @@ TEST(Sculptctl, HistoryJsonHasStableSnakeCaseNames) {
 TEST(Sculptctl, ExportWritesTheWholeFileAndNeverReplacesOneWithoutForce) {
   TempDir dir;
   const std::string first = export_pattern((std::size_t{9} << 20) + 7);
-  FakeDaemon d((dir.path / "s.sock").string(), [&](FakeControl& c) { c.export_bytes = first; });
-  const fs::path file = dir.path / "my.sculpt";
+  FakeDaemon d((dir.path() / "s.sock").string(), [&](FakeControl& c) { c.export_bytes = first; });
+  const fs::path file = dir.path() / "my.sculpt";
   auto r = ctl(d, {"export", file.string()});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "exported " + std::to_string(first.size()) + " bytes to " + file.string() + "\n");
@@ -219,7 +207,7 @@ TEST(Sculptctl, ExportWritesTheWholeFileAndNeverReplacesOneWithoutForce) {
   EXPECT_EQ(read_file(file), "second export");
   EXPECT_FALSE(fs::exists(file.string() + ".tmp"));
   std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir.path)) names.push_back(e.path().filename().string());
+  for (const auto& e : fs::directory_iterator(dir.path())) names.push_back(e.path().filename().string());
   std::sort(names.begin(), names.end());
   EXPECT_EQ(names, (std::vector<std::string>{"my.sculpt", "s.sock"})) << "a temporary file was left behind";
   d.with_control([](FakeControl& c) { EXPECT_EQ(c.exports_asked, 2) << "asked the daemon for a file it may not write"; });
@@ -227,7 +215,7 @@ TEST(Sculptctl, ExportWritesTheWholeFileAndNeverReplacesOneWithoutForce) {
 
 TEST(Sculptctl, HistoryPagesFromAStrokeOrTheNewestAndCountsTheRest) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });  // 7, 8, 9
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.history_now = sample_history(); });  // 7, 8, 9
   auto r = ctl(d, {"history", "--limit", "1"});
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(has(r.out, "clay (1)") && !has(r.out, "ball (0)")) << "the newest one: " << r.out;
@@ -258,9 +246,9 @@ TEST(Sculptctl, HistoryPagesFromAStrokeOrTheNewestAndCountsTheRest) {
 
 TEST(Sculptctl, ExportForcedReplacesOnlyARegularFileNeverADeviceFifoOrLink) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(), [](FakeControl& c) { c.export_bytes = "a sculpt"; });
-  const fs::path device = dir.path / "null", fifo = dir.path / "fifo", target = dir.path / "target",
-                 link = dir.path / "link";
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.export_bytes = "a sculpt"; });
+  const fs::path device = dir.path() / "null", fifo = dir.path() / "fifo", target = dir.path() / "target",
+                 link = dir.path() / "link";
   ASSERT_EQ(::mknod(device.c_str(), S_IFCHR | 0666, makedev(1, 3)), 0) << "the tests run as root";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0666), 0);
   std::ofstream(target) << "kept";
@@ -287,30 +275,30 @@ TEST(Sculptctl, ExportForcedReplacesOnlyARegularFileNeverADeviceFifoOrLink) {
 
 TEST(Sculptctl, ExportErrorsNameTheFileAndLeaveNothing) {
   TempDir dir;
-  FakeDaemon d((dir.path / "s.sock").string(),
+  FakeDaemon d((dir.path() / "s.sock").string(),
                [](FakeControl& c) { c.export_error = "the sculpt cannot be exported now"; });
-  const fs::path file = dir.path / "x.sculpt";
+  const fs::path file = dir.path() / "x.sculpt";
   auto r = ctl(d, {"export", file.string()});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err, "sculptctl: error: export: the sculpt cannot be exported now\n");
   EXPECT_FALSE(fs::exists(file));
   EXPECT_FALSE(fs::exists(file.string() + ".tmp"));
 
-  const fs::path nowhere = dir.path / "no" / "such" / "dir" / "x.sculpt";
+  const fs::path nowhere = dir.path() / "no" / "such" / "dir" / "x.sculpt";
   r = ctl(d, {"export", nowhere.string()});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.err.rfind("sculptctl: error: export: " + nowhere.string() + ": ", 0), 0u) << r.err;
 
-  r = ctl(d, {"export", dir.path.string()});
+  r = ctl(d, {"export", dir.path().string()});
   EXPECT_EQ(r.status, 1);
-  EXPECT_TRUE(has(r.err, dir.path.string() + ": is a directory")) << r.err;
+  EXPECT_TRUE(has(r.err, dir.path().string() + ": is a directory")) << r.err;
 }
 
 TEST(Sculptctl, NoDaemonIsExit3ForEveryNewCommand) {
   TempDir dir;
-  const std::string nobody = (dir.path / "nobody.sock").string();
+  const std::string nobody = (dir.path() / "nobody.sock").string();
   for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
-           {"undo"}, {"redo", "2"}, {"history"}, {"history", "--json"}, {"export", (dir.path / "x.sculpt").string()}}) {
+           {"undo"}, {"redo", "2"}, {"history"}, {"history", "--json"}, {"export", (dir.path() / "x.sculpt").string()}}) {
     std::vector<std::string> a = args;
     a.push_back("--socket");
     a.push_back(nobody);
@@ -318,7 +306,7 @@ TEST(Sculptctl, NoDaemonIsExit3ForEveryNewCommand) {
     EXPECT_EQ(r.status, 3) << args[0] << ": " << r.err;
     EXPECT_TRUE(has(r.err, "no daemon is listening on " + nobody)) << r.err;
   }
-  EXPECT_FALSE(fs::exists(dir.path / "x.sculpt"));
+  EXPECT_FALSE(fs::exists(dir.path() / "x.sculpt"));
 }
 
 }  // namespace

@@ -255,7 +255,7 @@ TEST(TuneHaptics, TheDaemonsRefusalIsTheResultsErrorAndNothingChanges) {
   EXPECT_EQ(h.control.tuning.gain, 1.0);
 }
 
-TEST(History, EveryFieldOldestFirstWithTheBudget) {
+TEST(SessionHistory, EveryFieldOldestFirstWithTheBudget) {
   Harness h;
   Client c(h);
   h.control.history_now = sample_history();
@@ -285,7 +285,7 @@ TEST(History, EveryFieldOldestFirstWithTheBudget) {
   EXPECT_EQ(empty.getHistory().getEntries().size(), 0u);
 }
 
-TEST(History, PastTheLimitOnlyTheNewestAreSentAndTheRestCounted) {
+TEST(SessionHistory, PastTheLimitOnlyTheNewestAreSentAndTheRestCounted) {
   server::ServerOptions o;
   o.max_history_entries = 2;
   Harness h(o);
@@ -299,7 +299,7 @@ TEST(History, PastTheLimitOnlyTheNewestAreSentAndTheRestCounted) {
   EXPECT_EQ(hist.getOmitted(), 1u);
 }
 
-TEST(History, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
+TEST(SessionHistory, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
   server::ServerOptions o;
   o.max_history_entries = 2;
   Harness h(o);
@@ -328,7 +328,7 @@ TEST(History, APageIsAskedOfTheControlAndTheRestCountedOnBothSides) {
   EXPECT_EQ(h.control.history_asks, asked) << "the control is asked for the page, never for more";
 }
 
-TEST(Export, ReadInChunksOfAtMostTheLimitThenEmptyAtTheEnd) {
+TEST(SessionExport, ReadInChunksOfAtMostTheLimitThenEmptyAtTheEnd) {
   Harness h;
   Client c(h);
   const std::size_t size = (std::size_t{10} << 20) + 123;
@@ -353,7 +353,7 @@ TEST(Export, ReadInChunksOfAtMostTheLimitThenEmptyAtTheEnd) {
   EXPECT_EQ(read_chunk(o.reader, h, 1000, 5), h.control.export_bytes.substr(1000, 5)) << "any offset, in any order";
 }
 
-TEST(Export, AnOffsetPastTheEndFailsNamingItAndTheReaderStillServes) {
+TEST(SessionExport, AnOffsetPastTheEndFailsNamingItAndTheReaderStillServes) {
   Harness h;
   Client c(h);
   h.control.export_bytes = export_pattern(1000);
@@ -370,7 +370,7 @@ TEST(Export, AnOffsetPastTheEndFailsNamingItAndTheReaderStillServes) {
   EXPECT_EQ(read_chunk(o.reader, h, 990, 100), h.control.export_bytes.substr(990));
 }
 
-TEST(Export, DroppingTheReaderClosesTheFile) {
+TEST(SessionExport, DroppingTheReaderClosesTheFile) {
   Harness h;
   Client c(h);
   {
@@ -389,7 +389,7 @@ TEST(Export, DroppingTheReaderClosesTheFile) {
   EXPECT_EQ(h.server->exports(), 0u);
 }
 
-TEST(Export, ADisconnectClosesTheClientsFiles) {
+TEST(SessionExport, ADisconnectClosesTheClientsFiles) {
   Harness h;
   auto c = std::make_unique<Client>(h);
   Opened a = open_export(*c, h), b = open_export(*c, h);
@@ -404,7 +404,7 @@ TEST(Export, ADisconnectClosesTheClientsFiles) {
   EXPECT_EQ(h.server->exports(), 0u);
 }
 
-TEST(Export, ReadersArePerConnectionAndOverallBounded) {
+TEST(SessionExport, ReadersArePerConnectionAndOverallBounded) {
   server::ServerOptions opt;
   opt.max_exports = 3;
   Harness h(opt);
@@ -429,7 +429,7 @@ TEST(Export, ReadersArePerConnectionAndOverallBounded) {
   EXPECT_EQ(open_export_files(), 3);
 }
 
-TEST(Export, ExportsBeingWrittenCountUntilTheDaemonAnswersAndOneWithoutAClientIsClosed) {
+TEST(SessionExport, ExportsBeingWrittenCountUntilTheDaemonAnswersAndOneWithoutAClientIsClosed) {
   server::ServerOptions opt;
   opt.max_exports_per_client = 1;
   Harness h(opt);
@@ -463,7 +463,7 @@ TEST(Export, ExportsBeingWrittenCountUntilTheDaemonAnswersAndOneWithoutAClientIs
   EXPECT_EQ(read_chunk(o.reader, h, 0, 100), "sculpt");
 }
 
-TEST(Export, AReaderNotReadForTheIdleTimeoutIsClosedAndItsReadsSaySo) {
+TEST(SessionExport, AReaderNotReadForTheIdleTimeoutIsClosedAndItsReadsSaySo) {
   // On the real clock, so what is asserted holds however late this thread
   // runs: a reader read within the timeout stays open (its reads only fail
   // after a gap longer than it), and one that is not is closed, never before
@@ -511,7 +511,7 @@ TEST(Export, AReaderNotReadForTheIdleTimeoutIsClosedAndItsReadsSaySo) {
   EXPECT_TRUE(open_export(c, h).ok);
 }
 
-TEST(Export, TheDaemonsErrorIsTheResultWithNoReaderAndNoFileLeftOpen) {
+TEST(SessionExport, TheDaemonsErrorIsTheResultWithNoReaderAndNoFileLeftOpen) {
   Harness h;
   Client c(h);
   h.control.export_error = "the state directory is read-only";
@@ -524,7 +524,7 @@ TEST(Export, TheDaemonsErrorIsTheResultWithNoReaderAndNoFileLeftOpen) {
   EXPECT_EQ(h.server->exports(), 0u);
 }
 
-TEST(Export, AFileThatIsNotWhatTheDaemonSaidIsRefusedAndClosed) {
+TEST(SessionExport, AFileThatIsNotWhatTheDaemonSaidIsRefusedAndClosed) {
   Harness h;
   Client c(h);
   h.control.reported_extra = 5;
@@ -536,7 +536,7 @@ TEST(Export, AFileThatIsNotWhatTheDaemonSaidIsRefusedAndClosed) {
   EXPECT_EQ(h.server->exports(), 0u);
 }
 
-TEST(Export, AnEmptyExportHasSizeZeroAndReadsNothing) {
+TEST(SessionExport, AnEmptyExportHasSizeZeroAndReadsNothing) {
   Harness h;
   Client c(h);
   h.control.export_bytes.clear();

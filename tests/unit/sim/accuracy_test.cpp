@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 #include "sim/stability.hpp"
 
 namespace sculpt::sim {

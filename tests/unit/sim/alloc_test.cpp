@@ -4,7 +4,7 @@
 
 #include "sim/edits.hpp"
 #include "sim/kernels.hpp"
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 #include "support/allocation_counter.hpp"
 
 

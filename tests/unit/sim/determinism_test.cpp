@@ -11,7 +11,7 @@
 
 #include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

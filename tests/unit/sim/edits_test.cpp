@@ -15,14 +15,14 @@
 #include <string>
 #include <vector>
 
-#include "edit_test_util.hpp"
+#include "block_images.hpp"
 #include "sim/clay.hpp"
 #include "sim/edit_capture.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/shapes.hpp"
 #include "sim/stability.hpp"
 #include "sim/world.hpp"
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

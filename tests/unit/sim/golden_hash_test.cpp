@@ -10,7 +10,7 @@
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
 #include "sim/world.hpp"
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

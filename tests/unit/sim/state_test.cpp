@@ -15,7 +15,7 @@
 #include "sim/kernel_testing.hpp"
 #include "sim/shapes.hpp"
 #include "sim/world.hpp"
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

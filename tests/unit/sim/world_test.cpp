@@ -9,7 +9,7 @@
 #include <limits>
 #include <random>
 
-#include "sim_test_util.hpp"
+#include "test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {
@@ -255,7 +255,7 @@ TEST(Sleeping, ApproachingToolWakesOnlyItsRegion) {
   EXPECT_TRUE(w.changes().empty());
 }
 
-TEST(ChangeLog, ListsWhatMoved) {
+TEST(WorldChanges, ListsWhatMoved) {
   Press p;
   p.press(50);
   ASSERT_FALSE(p.world.changes().empty());

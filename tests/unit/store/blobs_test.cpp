@@ -6,7 +6,7 @@
 
 #include <fstream>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {

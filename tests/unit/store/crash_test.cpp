@@ -9,7 +9,7 @@
 
 #include <cstring>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {
@@ -23,7 +23,7 @@ std::uint32_t big_endian32(const char* p) {
 // (sqlite.org/fileformat.html#the_write_ahead_log): a 32-byte header, then
 // frames of a 24-byte header and one page; a commit frame's header holds
 // the database size after the commit (nonzero) at bytes 4-7.
-std::vector<std::size_t> commit_ends(const std::vector<char>& wal) {
+std::vector<std::size_t> commit_ends(const std::string& wal) {
   std::vector<std::size_t> ends;
   if (wal.size() < 32) return ends;
   const std::size_t frame = 24 + big_endian32(wal.data() + 8);
@@ -61,8 +61,8 @@ TEST(Crash, WalCutAtEveryByteOfTheLastTwoCommitsLosesOnlyTheCutCommit) {
   Store s = Store::open(dir.path() / "live");
   ASSERT_TRUE(s.write_snapshot(100, state));  // checkpointed: the WAL starts empty
   for (const auto& batch : batches) ASSERT_TRUE(succeeded(s.append(views(batch))));
-  const std::vector<char> db = read_file(s.database());
-  const std::vector<char> wal = read_file(s.database().string() + "-wal");
+  const std::string db = read_file(s.database());
+  const std::string wal = read_file(s.database().string() + "-wal");
   const std::vector<std::size_t> ends = commit_ends(wal);
   ASSERT_EQ(ends.size(), batches.size());
   ASSERT_EQ(ends.back(), wal.size());

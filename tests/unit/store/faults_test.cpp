@@ -4,7 +4,7 @@
 // up when the disk comes back.
 #include <gtest/gtest.h>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {

@@ -7,7 +7,7 @@
 
 #include <fstream>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {
@@ -127,8 +127,7 @@ TEST(Taken, AFileThatReplacedTheDatabaseIsKeptAsideNotOverwritten) {
   fs::rename(dir.path() / "other", db);
   ASSERT_TRUE(succeeded(s.append(views(records(21, 22)))));
   EXPECT_NE(s.health().relocation.find("was replaced by another file"), std::string::npos) << s.health().relocation;
-  const std::vector<char> other = read_file(db.string() + ".foreign");
-  EXPECT_EQ(std::string(other.begin(), other.end()), "someone's file");
+  EXPECT_EQ(read_file(db.string() + ".foreign"), "someone's file");
   EXPECT_EQ(meta_of(s), "kept");
 }
 
@@ -173,8 +172,7 @@ TEST(Lock, ARemovedLockFileDoesNotLetASecondStoreIn) {
   fs::remove(dir.path() / "lock");
   EXPECT_THROW(Store::open(dir.path()), StoreInUse);
   ASSERT_TRUE(succeeded(s.append(views(records(1, 2)))));
-  const std::vector<char> pid = read_file(dir.path() / "lock");
-  EXPECT_EQ(std::string(pid.begin(), pid.end()), std::to_string(::getpid()) + "\n") << "made again, naming the holder";
+  EXPECT_EQ(read_file(dir.path() / "lock"), std::to_string(::getpid()) + "\n") << "made again, naming the holder";
   try {
     Store::open(dir.path());
     ADD_FAILURE() << "a second store opened";

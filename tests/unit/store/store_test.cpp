@@ -6,7 +6,7 @@
 #include <string>
 
 #include "store/codec.hpp"
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {

@@ -10,7 +10,7 @@
 #include <fstream>
 #include <string>
 
-#include "store_test_support.hpp"
+#include "test_records.hpp"
 
 namespace sculpt::store::testing {
 namespace {
@@ -124,7 +124,7 @@ TEST(Codec, FramesThatLieAreRefusedByName) {
   EXPECT_FALSE(why.empty());
 }
 
-TEST(Untrusted, ALongMetaAKeyOrTooManyRefsSkipTheSnapshotByName) {
+TEST(StoreUntrusted, ALongMetaAKeyOrTooManyRefsSkipTheSnapshotByName) {
   TempDir dir;
   Limits limits;
   limits.max_meta_bytes = 100;
@@ -153,7 +153,7 @@ TEST(Untrusted, ALongMetaAKeyOrTooManyRefsSkipTheSnapshotByName) {
       << joined(r.lost);
 }
 
-TEST(Untrusted, ANegativeTickOrSizeIsRefusedByName) {
+TEST(StoreUntrusted, ANegativeTickOrSizeIsRefusedByName) {
   TempDir dir;
   const auto state = random_bytes(1000, 1);
   {
@@ -173,7 +173,7 @@ TEST(Untrusted, ANegativeTickOrSizeIsRefusedByName) {
       << joined(r.lost);
 }
 
-TEST(Untrusted, TheJournalIsReadWithinItsCaps) {
+TEST(StoreUntrusted, TheJournalIsReadWithinItsCaps) {
   TempDir dir;
   Limits limits;
   limits.max_record_bytes = 100;
@@ -223,7 +223,7 @@ TEST(Untrusted, TheJournalIsReadWithinItsCaps) {
   }
 }
 
-TEST(Untrusted, AtMostTheCapOfSnapshotsIsTried) {
+TEST(StoreUntrusted, AtMostTheCapOfSnapshotsIsTried) {
   TempDir dir;
   Limits limits;
   limits.keep_snapshots = 10;
@@ -240,7 +240,7 @@ TEST(Untrusted, AtMostTheCapOfSnapshotsIsTried) {
   EXPECT_FALSE(has(r.lost, "tick 3:")) << "tried newest first, three of them";
 }
 
-TEST(Untrusted, AJudgeReadsOnlyWhatItAsksForWithinItsOwnCaps) {
+TEST(StoreUntrusted, AJudgeReadsOnlyWhatItAsksForWithinItsOwnCaps) {
   TempDir dir;
   const auto state = random_bytes(5000, 1), blob = random_bytes(3000, 2);
   const std::vector<BlobWrite> blobs{{"k", blob}};
@@ -272,7 +272,7 @@ TEST(Untrusted, AJudgeReadsOnlyWhatItAsksForWithinItsOwnCaps) {
   EXPECT_EQ(r.journal, records(4, 6));
 }
 
-TEST(Untrusted, NothingIsWrittenThatRecoveryWouldNotRead) {
+TEST(StoreUntrusted, NothingIsWrittenThatRecoveryWouldNotRead) {
   TempDir dir;
   Limits limits;
   limits.max_decoded_bytes = 1000;
@@ -285,7 +285,7 @@ TEST(Untrusted, NothingIsWrittenThatRecoveryWouldNotRead) {
                StoreError);
 }
 
-TEST(Untrusted, ManyGapsAreCountedNotListed) {
+TEST(StoreUntrusted, ManyGapsAreCountedNotListed) {
   TempDir dir;
   {
     Store s = Store::open(dir.path());

@@ -14,7 +14,7 @@
 #include "sim/shapes.hpp"
 #include "sim/stability.hpp"
 #include "sim/world.hpp"
-#include "../sim/sim_test_util.hpp"
+#include "../sim/test_meshes.hpp"
 
 namespace sculpt::sim {
 namespace {

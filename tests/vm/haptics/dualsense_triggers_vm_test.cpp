@@ -16,7 +16,7 @@
 #include "haptics/haptics_thread.hpp"
 #include "haptics/hidraw_port.hpp"
 #include "support/uhid_pad.hpp"
-#include "uhid/uhid_test_util.hpp"
+#include "uhid/pad_cases.hpp"
 
 namespace sculpt::haptics {
 namespace {

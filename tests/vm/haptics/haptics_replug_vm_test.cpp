@@ -22,13 +22,14 @@
 #include <vector>
 
 #include "haptics/haptics_thread.hpp"
+#include "support/timing.hpp"
 #include "support/virtual_joystick.hpp"
 
 namespace sculpt::haptics {
 namespace {
 
 using namespace std::chrono_literals;
-using support::JoystickSpec;
+using support::rumble_pad_spec;
 using support::VirtualJoystick;
 
 constexpr int kSlot = 2;
@@ -74,17 +75,10 @@ class NodeWatcher {
   std::thread thread_;
 };
 
-bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds limit) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
+using support::wait_until;
 
 TEST(HapticsReplugVm, EveryFirstUploadAfterAReplugSucceeds) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad());
+  VirtualJoystick joy(rumble_pad_spec());
   joy.unplug();
   FeedbackBoard board(1);
   HapticsSettings s;

@@ -24,6 +24,8 @@ using support::EvdevClient;
 using support::FfLog;
 using support::FfUpload;
 using support::JoystickSpec;
+using support::gamepad_spec;
+using support::rumble_pad_spec;
 using support::VirtualJoystick;
 
 const StickPlane kPlane{0, 2, 1.0, 1.0};
@@ -80,7 +82,7 @@ HapticsSettings fast_settings() {
 }
 
 TEST(HapticsVm, FfDeviceUploadsOnceThenTenThousandUpdatesInPlace) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   joy.set_recording(false);  // 10 000 uploads: count them, keep no log
   FfCounters counters;
   {
@@ -106,7 +108,7 @@ TEST(HapticsVm, FfDeviceUploadsOnceThenTenThousandUpdatesInPlace) {
 }
 
 TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -148,7 +150,7 @@ TEST(HapticsVm, ThreadMakesOneConstantUploadThenPacedInPlaceUpdates) {
 }
 
 TEST(HapticsVm, ContactDirectionAndLevelReachTheDevice) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -165,7 +167,7 @@ TEST(HapticsVm, ContactDirectionAndLevelReachTheDevice) {
 }
 
 TEST(HapticsVm, RumbleKickOnOnset) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -186,7 +188,7 @@ TEST(HapticsVm, RumbleKickOnOnset) {
 }
 
 TEST(HapticsVm, RumbleOnlyPadFeelsTheForceAndKicksInOneEffect) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad());
+  VirtualJoystick joy(rumble_pad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -219,7 +221,7 @@ TEST(HapticsVm, RumbleOnlyPadFeelsTheForceAndKicksInOneEffect) {
 }
 
 TEST(HapticsVm, OneEffectIdHoldsTheConstant) {
-  VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
+  VirtualJoystick joy(gamepad_spec().effects_max(1));
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -236,7 +238,7 @@ TEST(HapticsVm, OneEffectIdHoldsTheConstant) {
 }
 
 TEST(HapticsVm, OneEffectIdRumblePadKicks) {
-  VirtualJoystick joy(JoystickSpec::rumble_pad().effects_max(1));
+  VirtualJoystick joy(rumble_pad_spec().effects_max(1));
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -263,7 +265,7 @@ TEST(HapticsVm, DeviceWithoutFfIsInputOnly) {
 }
 
 TEST(HapticsVm, GainIsSet) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -277,7 +279,7 @@ TEST(HapticsVm, GainIsSet) {
 }
 
 TEST(HapticsVm, StopStopsAndErasesEveryEffect) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -303,7 +305,7 @@ TEST(HapticsVm, StopStopsAndErasesEveryEffect) {
 }
 
 TEST(HapticsVm, UnplugForgetsIdsAndReplugUploadsAgain) {
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
   haptics.start();
@@ -339,7 +341,7 @@ TEST(HapticsVm, UnplugForgetsIdsAndReplugUploadsAgain) {
 
 TEST(HapticsVm, KernelRefusingTheConstantFallsBackToRumble) {
   // The device claims FF_CONSTANT, but its driver answers EINVAL.
-  VirtualJoystick joy(JoystickSpec::gamepad());
+  VirtualJoystick joy(gamepad_spec());
   joy.fail_uploads_with(EINVAL);
   FeedbackBoard board(1);
   HapticsThread haptics(board, fast_settings());
@@ -361,7 +363,7 @@ TEST(HapticsVm, KernelRefusingTheConstantFallsBackToRumble) {
 }
 
 TEST(HapticsVm, NoFreeIdIsCountedAndRetried) {
-  VirtualJoystick joy(JoystickSpec::gamepad().effects_max(1));
+  VirtualJoystick joy(gamepad_spec().effects_max(1));
   EvdevClient hog(joy.event_node());  // another program holds the only id
   ff_effect held = support::rumble_effect(1, 1, 10);
   ASSERT_EQ(hog.upload(held), 0);

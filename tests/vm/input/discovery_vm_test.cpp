@@ -13,12 +13,14 @@
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "support/virtual_joystick.hpp"
-#include "vm_input_util.hpp"
+#include "device_pump.hpp"
 
 namespace sculpt::input {
 namespace {
 
 using support::JoystickSpec;
+using support::gamepad_spec;
+using support::rumble_pad_spec;
 using support::VirtualJoystick;
 using vmtest::pump_until;
 using vmtest::Recorded;
@@ -41,7 +43,7 @@ class Discovery : public ::testing::Test {
 
 TEST_F(Discovery, HotPluggedGamepadIsFoundAndClassified) {
   start();
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm hotplug pad"));
+  VirtualJoystick pad(gamepad_spec().named("vm hotplug pad"));
   const auto* a = wait_attach("vm hotplug pad");
   ASSERT_NE(a, nullptr) << "no attach for a gamepad plugged after start()";
   EXPECT_EQ(a->info.kind, DeviceKind::gamepad);
@@ -58,8 +60,8 @@ TEST_F(Discovery, HotPluggedGamepadIsFoundAndClassified) {
 }
 
 TEST_F(Discovery, DevicesPresentAtStartAreEnumeratedInPlugOrder) {
-  VirtualJoystick first(JoystickSpec::gamepad().named("vm first pad"));
-  VirtualJoystick second(JoystickSpec::rumble_pad().named("vm second pad"));
+  VirtualJoystick first(gamepad_spec().named("vm first pad"));
+  VirtualJoystick second(rumble_pad_spec().named("vm second pad"));
   if (vmtest::udev_running()) {
     // Let udev finish with both (their properties are what enumeration reads).
     const int rc = ::system("/usr/bin/udevadm settle --timeout=10");
@@ -80,7 +82,7 @@ TEST_F(Discovery, NonJoysticksAreIgnored) {
   keyboard.axes.clear();
   keyboard.button(KEY_A).button(KEY_B).button(KEY_ENTER);
   VirtualJoystick kb(keyboard);
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm pad after keyboard"));
+  VirtualJoystick pad(gamepad_spec().named("vm pad after keyboard"));
   ASSERT_NE(wait_attach("vm pad after keyboard"), nullptr);
   EXPECT_EQ(events.attach_named("vm keyboard"), nullptr);
   EXPECT_EQ(manager->attached(), 1u);
@@ -88,7 +90,7 @@ TEST_F(Discovery, NonJoysticksAreIgnored) {
 
 TEST_F(Discovery, FramesCarryEventsAndTimes) {
   start();
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm frames pad").misc(MSC_TIMESTAMP));
+  VirtualJoystick pad(gamepad_spec().named("vm frames pad").misc(MSC_TIMESTAMP));
   const auto* a = wait_attach("vm frames pad");
   ASSERT_NE(a, nullptr);
   const std::uint8_t slot = a->slot;
@@ -118,7 +120,7 @@ TEST_F(Discovery, FramesCarryEventsAndTimes) {
 
 TEST_F(Discovery, SynDroppedResyncsToTheDeviceState) {
   start();
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm flood pad"));
+  VirtualJoystick pad(gamepad_spec().named("vm flood pad"));
   ASSERT_NE(wait_attach("vm flood pad"), nullptr);
   // Nobody reads while thousands of reports arrive: evdev's buffer overflows
   // and the reader gets SYN_DROPPED.
@@ -137,7 +139,7 @@ TEST_F(Discovery, SynDroppedResyncsToTheDeviceState) {
 
 TEST_F(Discovery, UnplugIsDetachAndReplugGetsTheSameSlot) {
   start();
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm replug pad").ids(BUS_USB, 0x5c17, 0x0042));
+  VirtualJoystick pad(gamepad_spec().named("vm replug pad").ids(BUS_USB, 0x5c17, 0x0042));
   const auto* a = wait_attach("vm replug pad");
   ASSERT_NE(a, nullptr);
   const std::uint8_t slot = a->slot;
@@ -146,7 +148,7 @@ TEST_F(Discovery, UnplugIsDetachAndReplugGetsTheSameSlot) {
   EXPECT_EQ(events.detaches.back(), slot);
   EXPECT_EQ(manager->attached(), 0u);
   // Another device meanwhile takes another slot...
-  VirtualJoystick other(JoystickSpec::rumble_pad().named("vm other pad"));
+  VirtualJoystick other(rumble_pad_spec().named("vm other pad"));
   const auto* o = wait_attach("vm other pad");
   ASSERT_NE(o, nullptr);
   EXPECT_NE(o->slot, slot);
@@ -171,7 +173,7 @@ TEST_F(Discovery, EveryFdChangeIsAnnouncedEvenWhenTheCountStaysTheSame) {
   start();
   int announced = 0;
   manager->on_fds_changed([&] { ++announced; });
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm quick replug pad"));
+  VirtualJoystick pad(gamepad_spec().named("vm quick replug pad"));
   ASSERT_NE(wait_attach("vm quick replug pad"), nullptr);
   EXPECT_EQ(announced, 1);
   events.attaches.clear();
@@ -202,7 +204,7 @@ TEST_F(Discovery, DrivesToolsEndToEndThroughTheMapper) {
   } bridge;
   DeviceManager m(bridge);
   m.start();
-  VirtualJoystick pad(JoystickSpec::gamepad().named("vm mapped pad"));
+  VirtualJoystick pad(gamepad_spec().named("vm mapped pad"));
   ASSERT_TRUE(pump_until(m, [&] { return bridge.mapper.controls()[1].connected; }));
   pad.move_axes({{ABS_RX, 32767}, {ABS_Y, -32768}});
   pad.press(BTN_SOUTH);

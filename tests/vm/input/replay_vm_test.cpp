@@ -12,11 +12,13 @@
 #include <map>
 #include <thread>
 
-#include "child_process.hpp"
 #include "input/session.hpp"
+#include "support/child_process.hpp"
 #include "support/evdev_client.hpp"
+#include "support/scratch_dir.hpp"
+#include "support/timing.hpp"
 #include "support/virtual_joystick.hpp"
-#include "vm_input_util.hpp"
+#include "device_pump.hpp"
 
 #ifndef SCULPTCTL_BIN
 #error "SCULPTCTL_BIN must name the sculptctl binary"
@@ -28,11 +30,12 @@
 namespace sculpt::input {
 namespace {
 
-using vmtest::ChildProcess;
+using support::ChildProcess;
+using support::scaled;
 using vmtest::pump_until;
 using vmtest::Recorded;
 
-std::filesystem::path temp(const std::string& name) { return std::filesystem::path(::testing::TempDir()) / name; }
+std::filesystem::path temp(const std::string& name) { return support::scratch_path(name); }
 
 DeviceInfo recorded_pad() {
   DeviceInfo d;
@@ -98,7 +101,7 @@ Recorded replayed_only(const Recorded& events) {
   return out;
 }
 
-TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
+TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   const Session session = make_session();
   const auto file = temp("replay_vm.jsonl");
   write_session(file, session);
@@ -106,10 +109,11 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   Recorded events;
   DeviceManager manager(events);
   manager.start();
-  ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", "0.3", file.string()});
+  ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", "0.3", file.string()},
+                      {.out = ChildProcess::Output::capture});
   ASSERT_TRUE(pump_until(manager, [&] { return events.attaches.size() >= 2; },
-                         vmtest::scaled(std::chrono::milliseconds(8000))))
-      << "replay did not create two devices; its output: " << replay.output();
+                         scaled(std::chrono::milliseconds(8000))))
+      << "replay did not create two devices; its output: " << replay.out().text();
 
   const auto* pad = events.attach_named("replayed pad");
   const auto* stick = events.attach_named("replayed stick");
@@ -152,7 +156,7 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
     ff_done = true;
   });
   const bool ff_in_time =
-      pump_until(manager, [&] { return ff_done.load(); }, vmtest::scaled(std::chrono::milliseconds(5000)));
+      pump_until(manager, [&] { return ff_done.load(); }, scaled(std::chrono::milliseconds(5000)));
   ff.join();
   EXPECT_TRUE(ff_in_time) << "FF uploads to the replayed pad were not answered within 5 s";
   EXPECT_EQ(upload_rc, 0);
@@ -162,14 +166,14 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
 
   const std::uint8_t pad_slot = pad->slot, stick_slot = stick->slot;
   ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= 2; },
-                         vmtest::scaled(std::chrono::milliseconds(15000))))
-      << "the replay's devices never went away; output: " << replay.output();
-  const auto status = replay.wait();
+                         scaled(std::chrono::milliseconds(15000))))
+      << "the replay's devices never went away; output: " << replay.out().text();
+  const auto status = replay.wait(std::chrono::milliseconds(20000));
   ASSERT_TRUE(status.has_value());
-  EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << replay.output();
-  EXPECT_NE(replay.output().find("replayed " + std::to_string(session.frames.size()) + " frames"), std::string::npos)
-      << replay.output();
-  EXPECT_NE(replay.output().find("answered 2 FF uploads"), std::string::npos) << replay.output();
+  EXPECT_EQ(*status, 0) << replay.out().text();
+  EXPECT_NE(replay.out().text().find("replayed " + std::to_string(session.frames.size()) + " frames"), std::string::npos)
+      << replay.out().text();
+  EXPECT_NE(replay.out().text().find("answered 2 FF uploads"), std::string::npos) << replay.out().text();
 
   const Recorded replayed = replayed_only(events);
   // Every device ends where the recording ends.
@@ -212,13 +216,13 @@ TEST(Replay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   }
 }
 
-TEST(Replay, ShippedSessionsPlay) {
+TEST(UinputReplay, ShippedSessionsPlay) {
   // The three (bench_sculpt is the same moves, longer: the unit
   // suite reads it, sculptd's benchmark plays it). A sanitized -O0 build in
   // the emulated guest reads ~3000-frame sessions some 20x slower: it plays
   // the shortest only; the plain build plays all three.
   std::vector<std::string> names{"push", "pull", "two_hands"};
-  if (vmtest::scaled(std::chrono::milliseconds(1)).count() > 1) names = {"push"};
+  if (scaled(std::chrono::milliseconds(1)).count() > 1) names = {"push"};
   for (const std::string& name : names) {
     const std::filesystem::path file = std::filesystem::path(SCULPT_SESSIONS_DIR) / (name + ".jsonl");
     const Session s = read_session(file);
@@ -227,10 +231,11 @@ TEST(Replay, ShippedSessionsPlay) {
     DeviceManager manager(events);
     manager.start();
     // Fast (50x): this checks the devices and that it plays to the end.
-    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "50", "--settle", "0.3", "--hold", "0.2", file.string()});
+    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "50", "--settle", "0.3", "--hold", "0.2", file.string()},
+                        {.out = ChildProcess::Output::capture});
     ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= s.header.devices.size(); },
-                           vmtest::scaled(std::chrono::milliseconds(30000))))
-        << file << ": " << replay.output();
+                           scaled(std::chrono::milliseconds(30000))))
+        << file << ": " << replay.out().text();
     ASSERT_EQ(events.attaches.size(), s.header.devices.size()) << file;
     for (std::size_t i = 0; i < s.header.devices.size(); ++i) {
       EXPECT_EQ(events.attaches[i].info.name, s.header.devices[i].name);
@@ -238,9 +243,9 @@ TEST(Replay, ShippedSessionsPlay) {
       for (const auto& [key, value] : final_state(s, static_cast<std::uint32_t>(i)))
         EXPECT_EQ(got[key], value) << file << " device " << i << " code " << key.second;
     }
-    const auto status = replay.wait(vmtest::scaled(std::chrono::milliseconds(20000)));
+    const auto status = replay.wait(scaled(std::chrono::milliseconds(20000)));
     ASSERT_TRUE(status.has_value());
-    EXPECT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << replay.output();
+    EXPECT_EQ(*status, 0) << replay.out().text();
   }
 }
 
@@ -248,20 +253,21 @@ TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
   const auto file = temp("recorded_vm.jsonl");
   std::filesystem::remove(file);
   // No --duration: it records until SIGINT, sent once the moves are made.
-  ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", file.string()});
-  support::VirtualJoystick pad(support::JoystickSpec::gamepad().named("vm recorded pad"));
-  auto line = record.line(vmtest::scaled(std::chrono::milliseconds(10000)));
-  while (line && line->rfind("recording", 0) != 0) line = record.line();
-  ASSERT_TRUE(line.has_value()) << "record never started: " << record.output();
+  ChildProcess record({SCULPTCTL_BIN, "record", "--wait-devices", "1", file.string()},
+                      {.out = ChildProcess::Output::capture});
+  support::VirtualJoystick pad(support::gamepad_spec().named("vm recorded pad"));
+  auto line = record.out().next(scaled(std::chrono::milliseconds(10000)));
+  while (line && line->rfind("recording", 0) != 0) line = record.out().next(std::chrono::milliseconds(10000));
+  ASSERT_TRUE(line.has_value()) << "record never started: " << record.out().text();
   pad.move_axes({{ABS_X, 111}, {ABS_Y, 222}});
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // spacing between moves, not a wait for a fact
   pad.press(BTN_SOUTH);
   pad.move_axis(ABS_RX, -333);
   // The events are in the device's queue: what is queued when it stops is recorded too.
-  ::kill(record.pid(), SIGINT);
-  const auto status = record.wait(vmtest::scaled(std::chrono::milliseconds(20000)));
+  record.signal(SIGINT);
+  const auto status = record.wait(scaled(std::chrono::milliseconds(20000)));
   ASSERT_TRUE(status.has_value());
-  ASSERT_TRUE(WIFEXITED(*status) && WEXITSTATUS(*status) == 0) << record.output();
+  ASSERT_EQ(*status, 0) << record.out().text();
 
   const Session s = read_session(file);
   ASSERT_EQ(s.header.devices.size(), 1u);

@@ -17,7 +17,7 @@
 
 #include "support/evdev_client.hpp"
 #include "support/uhid_pad.hpp"
-#include "uhid_test_util.hpp"
+#include "pad_cases.hpp"
 
 namespace sculpt::support {
 namespace {

@@ -27,7 +27,7 @@
 
 #include "haptics/haptics_thread.hpp"
 #include "support/uhid_pad.hpp"
-#include "uhid_test_util.hpp"
+#include "pad_cases.hpp"
 
 namespace sculpt::haptics {
 namespace {

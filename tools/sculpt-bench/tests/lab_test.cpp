@@ -71,7 +71,7 @@ std::vector<CaseResult> sweep(const Problem& p, Method m, Impl impl, bool dbl, i
   return out;
 }
 
-TEST(Accuracy, VerletIsSecondOrderOnTheChain) {
+TEST(LabAccuracy, VerletIsSecondOrderOnTheChain) {
   const Problem chain = make_problem("chain");
   for (Impl impl : {Impl::daemon, Impl::lab}) {
     const std::vector<CaseResult> cases = sweep(chain, Method::position_verlet, impl, true);
@@ -82,7 +82,7 @@ TEST(Accuracy, VerletIsSecondOrderOnTheChain) {
   }
 }
 
-TEST(Accuracy, DaemonVelocityVerletIsSecondOrderFromItsFirstStep) {
+TEST(LabAccuracy, DaemonVelocityVerletIsSecondOrderFromItsFirstStep) {
   // World computes a(t) before the first opening half kick of a new (or
   // woken, restored, set_state) block; with the zero acceleration it used to
   // start from, the chain measured order 1.28.
@@ -92,7 +92,7 @@ TEST(Accuracy, DaemonVelocityVerletIsSecondOrderFromItsFirstStep) {
   EXPECT_NEAR(convergence_order(cases), 2.0, 0.1);
 }
 
-TEST(Accuracy, EulerIsFirstOrderAndGainsEnergy) {
+TEST(LabAccuracy, EulerIsFirstOrderAndGainsEnergy) {
   const Problem osc = make_problem("oscillator");
   std::vector<CaseResult> cases = sweep(osc, Method::explicit_euler, Impl::lab, true);
   cases.erase(cases.begin(), cases.begin() + 3);  // the coarse steps are far from asymptotic
@@ -100,7 +100,7 @@ TEST(Accuracy, EulerIsFirstOrderAndGainsEnergy) {
   EXPECT_GT(cases.front().energy_error, 0.01);
 }
 
-TEST(Accuracy, LabVerletReproducesTheDaemon) {
+TEST(LabAccuracy, LabVerletReproducesTheDaemon) {
   for (const char* name : {"chain", "mesh"}) {
     const Problem p = make_problem(name);
     const double dt = p.dts[2];
@@ -117,7 +117,7 @@ TEST(Accuracy, LabVerletReproducesTheDaemon) {
   }
 }
 
-TEST(Accuracy, ReferenceIsConverged) {
+TEST(LabAccuracy, ReferenceIsConverged) {
   // The mesh reference agrees with one at twice its resolution to far below the finest error measured.
   const Problem p = make_problem("mesh");
   const double dt = p.dts[2];
@@ -131,7 +131,7 @@ TEST(Accuracy, ReferenceIsConverged) {
   EXPECT_LT(worst, 0.01 * run_case(p, s, reference(p, s.dt, s.dt)).error_max);
 }
 
-TEST(Stability, ChainCriticalDtIsTwoOverRootLambdaMax) {
+TEST(LabStability, ChainCriticalDtIsTwoOverRootLambdaMax) {
   const Problem chain = make_problem("chain");
   const PowerIteration pi = power_iteration(chain.model);
   ASSERT_TRUE(pi.converged);
@@ -151,7 +151,7 @@ TEST(Stability, ChainCriticalDtIsTwoOverRootLambdaMax) {
   EXPECT_LE(bound.dt_critical, daemon.dt * 1.0001);
 }
 
-TEST(Stability, DampedLimitFollowsTheFormula) {
+TEST(LabStability, DampedLimitFollowsTheFormula) {
   // One mode x'' = −λx − μx' with a backward-difference damper: dt < 2/(√(λ+μ²/4)+μ/2).
   Model m;
   m.force_model = sim::ForceModel::linear;
@@ -241,7 +241,7 @@ TEST(Pareto, DefaultTickAndSubstepsAreOnTheFront) {
   }
 }
 
-TEST(Accuracy, FloatVerletKeepsItsDigitsAtFineSteps) {
+TEST(LabAccuracy, FloatVerletKeepsItsDigitsAtFineSteps) {
   // At 1/8 ms, where rounding matters most, position Verlet in float stays
   // within 10% of double (measured 2.6%; 5x worse while it kept x_prev), as
   // does symplectic Euler in float.

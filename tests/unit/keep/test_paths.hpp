@@ -5,10 +5,10 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include "support/scratch_dir.hpp"
 #include "support/sculpt_rig.hpp"
 
 namespace sculpt::daemon::testing {
@@ -17,12 +17,6 @@ inline std::string session_path(const std::string& name) {
   return std::string(SCULPT_TEST_DATA) + "/sessions/" + name;
 }
 
-inline std::filesystem::path fresh_dir(const std::string& name) {
-  const auto d = std::filesystem::path(::testing::TempDir()) /
-                 ("keep-" + name + "-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
-}
+inline std::filesystem::path fresh_dir(const std::string& name) { return support::fresh_scratch_dir("keep-" + name); }
 
 }  // namespace sculpt::daemon::testing

@@ -5,7 +5,7 @@
 // the energy balance of press/release cycles. Prints tables; --csv prints
 // the force-depth curve only (scripts/force_depth_svg.py plots it).
 //
-//   build/tests/bench/contact_feel [--csv]
+//   build/tests/bench/sim/contact_feel [--csv]
 #include <cmath>
 #include <cstdio>
 #include <cstring>

@@ -1,10 +1,11 @@
-// The session format: round trips, and errors that name file, line and field.
+// The recording format (recorded input files, input/session.hpp): round
+// trips, and errors that name file, line and field.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "input/session.hpp"
-#include "input_test_util.hpp"
+#include "test_devices.hpp"
 
 namespace sculpt::input {
 namespace {
@@ -38,7 +39,7 @@ std::string error_of(const std::string& name, const std::string& text) {
 const std::string kHeader =
     R"({"format":"sculpt-session","version":1,"devices":[{"name":"pad","vendor":1,"product":2,"axes":[{"code":"ABS_X","min":-10,"max":10},{"code":1,"min":-10,"max":10}],"buttons":["BTN_SOUTH"]}]})";
 
-TEST(Session, RoundTrip) {
+TEST(Recording, RoundTrip) {
   const Session s = sample();
   const auto p = testing::temp_file("roundtrip.jsonl");
   write_session(p, s);
@@ -53,7 +54,7 @@ TEST(Session, RoundTrip) {
   EXPECT_EQ(r.frames, s.frames);
 }
 
-TEST(Session, HeaderNamesCodesReadably) {
+TEST(Recording, HeaderNamesCodesReadably) {
   const std::string h = header_to_json(sample().header);
   EXPECT_NE(h.find(R"("format":"sculpt-session")"), std::string::npos);
   EXPECT_NE(h.find(R"("ABS_RX")"), std::string::npos);
@@ -61,7 +62,7 @@ TEST(Session, HeaderNamesCodesReadably) {
   EXPECT_NE(h.find(R"("BTN_TRIGGER")"), std::string::npos);
 }
 
-TEST(Session, MinimalHeaderAndBlankLinesAreFine) {
+TEST(Recording, MinimalHeaderAndBlankLinesAreFine) {
   const auto p = write_file("minimal.jsonl", kHeader + "\n[0,0,[[3,0,5]]]\n\n[10,0,[]]\n");
   const Session s = read_session(p);
   ASSERT_EQ(s.frames.size(), 2u);
@@ -69,7 +70,7 @@ TEST(Session, MinimalHeaderAndBlankLinesAreFine) {
   EXPECT_EQ(s.frames[0].events[0], (InputEvent{EV_ABS, ABS_X, 5}));
 }
 
-TEST(Session, Errors) {
+TEST(Recording, Errors) {
   EXPECT_NE(error_of("e1", "").find("e1:1: empty file"), std::string::npos);
   EXPECT_NE(error_of("e2", "not json\n").find("e2:1: the header is not valid JSON"), std::string::npos);
   EXPECT_NE(error_of("e3", R"({"format":"other","version":1,"devices":[]})").find("not a session file"),
@@ -109,7 +110,7 @@ TEST(Session, Errors) {
             std::string::npos);
 }
 
-TEST(Session, ShippedSessionsRead) {
+TEST(Recording, ShippedSessionsRead) {
   std::size_t n = 0;
   for (const auto& e : std::filesystem::directory_iterator(SCULPT_SESSIONS_DIR)) {
     if (e.path().extension() != ".jsonl") continue;
@@ -124,7 +125,7 @@ TEST(Session, ShippedSessionsRead) {
   EXPECT_GE(n, 3u) << "push, pull and two_hands at least, in " << SCULPT_SESSIONS_DIR;
 }
 
-TEST(Session, FastAndFullParsersAgree) {
+TEST(Recording, FastAndFullParsersAgree) {
   // Spacing, negative values, empty event lists: the fast path or the JSON
   // parser, the same frame.
   for (const std::string line : {"[0,0,[[3,0,-5],[1,304,1]]]", " [ 12 , 0 , [ [3, 1, 7] ] ] ", "[5,0,[]]",
@@ -147,7 +148,7 @@ TEST(Session, FastAndFullParsersAgree) {
   EXPECT_EQ(frame_to_json(frame_from_json(" [ 12 , 0 , [ [3, 1, 7] ] ] ", "x", 1)), "[12,0,[[3,1,7]]]");
 }
 
-TEST(Session, MissingFileNamesIt) {
+TEST(Recording, MissingFileNamesIt) {
   try {
     SessionReader r("/nonexistent/session.jsonl");
     FAIL();
@@ -156,7 +157,7 @@ TEST(Session, MissingFileNamesIt) {
   }
 }
 
-TEST(Session, WriterKeepsTimeMonotonic) {
+TEST(Recording, WriterKeepsTimeMonotonic) {
   const auto p = testing::temp_file("mono.jsonl");
   SessionHeader h;
   h.devices = {testing::gamepad()};

@@ -17,10 +17,12 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "files/temp_dir.hpp"
 #include "store/codec.hpp"
 #include "store/sqlite.hpp"
 #include "store/store.hpp"
@@ -196,14 +198,9 @@ void recovery(const fs::path& dir, const std::vector<std::byte>& state) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  fs::path base;
-  if (argc > 1) {
-    base = argv[1];
-  } else {
-    std::string tmpl = (fs::temp_directory_path() / "store-bench-XXXXXX").string();
-    if (!::mkdtemp(tmpl.data())) return 1;
-    base = tmpl;
-  }
+  std::optional<sculpt::files::TempDir> scratch;  // unless a directory is given
+  if (argc <= 1) scratch.emplace("store-bench");
+  const fs::path base = argc > 1 ? fs::path(argv[1]) : scratch->path();
   const std::vector<std::byte> state = sculpt_state(163'842);
   std::printf("state: 163842 vertices, %zu bytes; store in %s\n\n", state.size(), base.c_str());
   codecs(state);
@@ -218,7 +215,6 @@ int main(int argc, char** argv) {
   std::printf("\n");
   journal(base / "journal", 60);
   recovery(base / "recovery", state);
-  if (argc <= 1) fs::remove_all(base);
   if (g_failures > 0) {
     std::fprintf(stderr, "store_bench: %d failures (above): the figures are not the store's\n", g_failures);
     return 1;

@@ -40,7 +40,7 @@
 
 #include "client/connection.hpp"
 #include "sculptd_process.hpp"
-#include "support/command.hpp"
+#include "support/child_process.hpp"
 
 using namespace sculpt;
 using namespace std::chrono_literals;

@@ -1,15 +1,17 @@
-// Shared helpers of the scene tests: where the test data lives and a scratch
-// directory per test that cleans up after itself.
+// What the scene tests share: where the test data lives, a scratch
+// directory per test that cleans up after itself (files::TempDir), and the
+// message of an expected exception.
 #pragma once
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <random>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "files/temp_dir.hpp"
+#include "support/read_file.hpp"
 
 namespace sculpt::scene::testing {
 
@@ -20,39 +22,20 @@ inline std::filesystem::path data_dir() {
 }
 inline std::filesystem::path mesh_file(const std::string& name) { return data_dir() / "meshes" / name; }
 
-class TempDir {
+class TempDir : public files::TempDir {
  public:
-  TempDir() {
-    std::random_device rd;
-    path_ = std::filesystem::temp_directory_path() / ("sculpt-scene-test-" + std::to_string(rd()) + std::to_string(rd()));
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+  TempDir() : files::TempDir("sculpt-scene-test") {}
+  std::filesystem::path operator/(const std::string& name) const { return path() / name; }
 
   std::filesystem::path write(const std::string& name, const std::string& text) const {
-    const auto p = path_ / name;
+    const auto p = path() / name;
     std::filesystem::create_directories(p.parent_path());
     std::ofstream(p, std::ios::binary) << text;
     return p;
   }
-
- private:
-  std::filesystem::path path_;
 };
 
-inline std::string read_file(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using support::read_file;
 
 // The message of the exception `f` throws, or a failure if it throws none.
 template <class E, class F>

@@ -12,7 +12,7 @@
 // floor, and the time from the sim thread's last beat to the return of the
 // zero write.
 //
-//   build/tests/unit/haptics/haptics_pacing_report [seconds=10] [stalls=20] [write_ms=0]
+//   build/tests/bench/haptics/haptics_pacing_report [seconds=10] [stalls=20] [write_ms=0]
 #include <linux/input.h>
 
 #include <algorithm>

@@ -7,7 +7,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cstdlib>
 #include <functional>
 #include <map>
 #include <string>
@@ -61,14 +60,6 @@ inline bool pump_until(DeviceManager& m, const std::function<bool()>& pred,
         if (p.revents) m.dispatch(p.fd);
   }
   return true;
-}
-
-// The runner's --slowdown (sanitized builds run a few times slower): long
-// waits scale by it.
-inline std::chrono::milliseconds scaled(std::chrono::milliseconds t) {
-  const char* s = std::getenv("SCULPT_VM_SLOWDOWN");
-  const double f = s ? std::atof(s) : 1.0;
-  return std::chrono::milliseconds(static_cast<long>(static_cast<double>(t.count()) * (f >= 1.0 ? f : 1.0)));
 }
 
 // Whether this guest runs udevd (the vm-udev suite) or not (the plain vm suite).

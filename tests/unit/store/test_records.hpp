@@ -17,6 +17,7 @@
 
 #include "files/temp_dir.hpp"
 #include "store/store.hpp"
+#include "support/read_file.hpp"
 
 namespace sculpt::store::testing {
 
@@ -67,10 +68,7 @@ inline ::testing::AssertionResult succeeded(const Status& s) {
   return ::testing::AssertionFailure() << s.error;
 }
 
-inline std::vector<char> read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using support::read_file;
 
 inline void write_file(const fs::path& p, const char* data, std::size_t n) {
   std::ofstream out(p, std::ios::binary | std::ios::trunc);

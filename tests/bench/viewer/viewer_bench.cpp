@@ -5,7 +5,7 @@
 // vertices), and uploaded over the changed ranges.
 //
 //   meson test -C build --benchmark viewer_bench --verbose
-//   build/tests/viewer/viewer_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//   build/tests/bench/viewer/viewer_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 #include <capnp/message.h>
 #include <fmt/format.h>

@@ -1,4 +1,5 @@
-// Device descriptions the input unit tests share.
+// What the input unit tests share: device descriptions, and files in the
+// test process's scratch directory.
 #pragma once
 
 #include <linux/input.h>
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "input/device_info.hpp"
+#include "support/scratch_dir.hpp"
 
 namespace sculpt::input::testing {
 
@@ -50,9 +52,7 @@ inline DeviceInfo flight_stick() {
   return d;
 }
 
-inline std::filesystem::path temp_file(const std::string& name) {
-  return std::filesystem::path(::testing::TempDir()) / name;
-}
+inline std::filesystem::path temp_file(const std::string& name) { return support::scratch_path(name); }
 
 inline std::filesystem::path write_file(const std::string& name, const std::string& text) {
   const auto p = temp_file(name);

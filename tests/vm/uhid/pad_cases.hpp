@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "haptics/feedback_board.hpp"
+#include "support/timing.hpp"
 #include "support/uhid_pad.hpp"
 
 namespace sculpt::support::uhidtest {
@@ -33,10 +34,7 @@ struct PadName {
   }
 };
 
-// A deadline stretched by the runner's slowdown (sanitized builds).
-inline std::chrono::milliseconds scaled(std::chrono::milliseconds t) {
-  return std::chrono::milliseconds(static_cast<long long>(static_cast<double>(t.count()) * vm_slowdown()));
-}
+using support::scaled;
 
 // Tool 0 pressing with `newton` along x, or not touching at all.
 inline haptics::Felt touching(double newton) {
