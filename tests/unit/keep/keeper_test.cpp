@@ -7,6 +7,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <random>
+#include <tuple>
+
+#include <sys/stat.h>
 
 #include <kj/async.h>
 
@@ -275,10 +278,27 @@ TEST(Keeper, UndoWorksAfterARecovery) {
 }
 
 // The files of a running store copied as they are: what a SIGKILL leaves.
+// The two files are copied one after the other; a SIGKILL freezes both at
+// one moment. Appends to the WAL while it is copied are what a later kill
+// would leave, but a checkpoint between the two copies would pair a
+// database of one moment with a WAL of another: the copy is taken again
+// until the database did not change under it.
 void copy_store(const fs::path& from, const fs::path& to) {
+  const auto version = [&] {
+    struct stat st {};
+    if (::stat((from / "store.db").c_str(), &st) != 0) return std::tuple<std::int64_t, std::int64_t, std::int64_t>{};
+    return std::tuple<std::int64_t, std::int64_t, std::int64_t>{st.st_size, st.st_mtim.tv_sec, st.st_mtim.tv_nsec};
+  };
   fs::create_directories(to);
-  for (const char* f : {"store.db", "store.db-wal"})
-    if (fs::exists(from / f)) fs::copy_file(from / f, to / f, fs::copy_options::overwrite_existing);
+  for (;;) {
+    const auto before = version();
+    for (const char* f : {"store.db", "store.db-wal"}) {
+      fs::remove(to / f);
+      std::error_code ec;  // the WAL may be gone between the test and the copy
+      if (fs::exists(from / f)) fs::copy_file(from / f, to / f, fs::copy_options::overwrite_existing, ec);
+    }
+    if (version() == before) return;
+  }
 }
 
 TEST(Keeper, AStoreCopiedAtAnyMomentRecoversTheExactTickItSays) {
