@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "input/mapping.hpp"
+#include "loop/simulation_settings.hpp"
 #include "loop/tool_driver.hpp"
 #include "scene/scene.hpp"
 
@@ -56,6 +57,17 @@ inline std::vector<input::ToolRoute> tool_routes(const scene::Scene& s) {
     out.push_back(r);
   }
   return out;
+}
+
+// The scene's tools as the driver moves them, within the settings' limits.
+inline ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings& settings, double rate) {
+  const auto specs = tool_specs(scene);
+  DriverLimits limits;
+  limits.bounds = tool_bounds(mesh_bounds(scene), specs, settings.tool_margin);
+  limits.size_step = settings.size_step;
+  limits.min_scale = settings.min_scale;
+  limits.max_scale = settings.max_scale;
+  return ToolDriver(specs, limits, rate);
 }
 
 }  // namespace sculpt::loop

@@ -32,4 +32,11 @@ KeeperSettings keeper_settings(const DaemonConfig& c) {
   return k;
 }
 
+SimHostSettings sim_host_settings(const DaemonConfig& c) {
+  return SimHostSettings{.realtime = c.realtime,
+                         .realtime_priority = c.realtime_priority,
+                         .wake_early_us = c.wake_early_us,
+                         .duration_s = c.duration_s};
+}
+
 }  // namespace sculpt::daemon

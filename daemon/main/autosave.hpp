@@ -8,6 +8,7 @@
 
 #include "main/config.hpp"
 #include "main/keeper.hpp"
+#include "main/sim_host.hpp"
 
 namespace sculpt::daemon {
 
@@ -16,5 +17,7 @@ bool store_wanted(const DaemonConfig& config);
 // ~/.local/state/sculptd. Throws ConfigError when none can be found.
 std::filesystem::path state_dir(const StoreConfig& store);
 KeeperSettings keeper_settings(const DaemonConfig& config);
+// The sim thread's settings; none of them changes at a reload.
+SimHostSettings sim_host_settings(const DaemonConfig& config);
 
 }  // namespace sculpt::daemon

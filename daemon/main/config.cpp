@@ -101,7 +101,7 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("scene", c.scene);
   r.get("socket", c.socket);
   double rate = 0;
-  if (r.get("rate_hz", rate, kRateRange.lo, kRateRange.hi)) c.rate_hz = rate;
+  if (r.get("rate_hz", rate, loop::kRateRange.lo, loop::kRateRange.hi)) c.rate_hz = rate;
   std::string s;
   if (r.get("input", s)) {
     try {
@@ -131,10 +131,10 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
 void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "tools", {"margin", "size_step", "min_scale", "max_scale"});
   const Reader r{file, t, "tools"};
-  r.get("margin", c.tool_margin, kToolMarginRange.lo, kToolMarginRange.hi);
-  r.get("size_step", c.size_step, kSizeStepRange.lo, kSizeStepRange.hi);
-  r.get("min_scale", c.min_scale, kMinScaleRange.lo, kMinScaleRange.hi);
-  r.get("max_scale", c.max_scale, kMaxScaleRange.lo, kMaxScaleRange.hi);
+  r.get("margin", c.tool_margin, loop::kToolMarginRange.lo, loop::kToolMarginRange.hi);
+  r.get("size_step", c.size_step, loop::kSizeStepRange.lo, loop::kSizeStepRange.hi);
+  r.get("min_scale", c.min_scale, loop::kMinScaleRange.lo, loop::kMinScaleRange.hi);
+  r.get("max_scale", c.max_scale, loop::kMaxScaleRange.lo, loop::kMaxScaleRange.hi);
 }
 
 void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {
@@ -262,6 +262,16 @@ DaemonConfig parse_config(std::string_view text, const std::filesystem::path& fi
   // The input module reads its own keys ([input], [[device]]) from the root.
   c.mapping_table = std::move(root);
   return c;
+}
+
+loop::SimulationSettings simulation_settings(const DaemonConfig& config) {
+  const bool replay = config.input.kind == InputSpec::Kind::replay;
+  return loop::SimulationSettings{.rate_hz = config.rate_hz,
+                                  .tool_margin = config.tool_margin,
+                                  .size_step = config.size_step,
+                                  .min_scale = config.min_scale,
+                                  .max_scale = config.max_scale,
+                                  .ring_capacity = replay ? loop::kReplayRingCapacity : loop::kLiveRingCapacity};
 }
 
 DaemonConfig load_config(const std::filesystem::path& file, bool optional) {

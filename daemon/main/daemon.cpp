@@ -62,7 +62,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
       : opts_(std::move(opts)),
         cfg_(opts_.config),
         io_(io),
-        sims_(cfg_),
+        sims_(sim_host_settings(cfg_)),
         hub_(cfg_.input_clock == InputClock::device, cfg_.input_delay_ms, [this] { return sims_.current_tick(); }),
         desk_(sims_, hub_, [this](std::function<SceneSource()> read, const char* what) {
           return loader_->load(std::move(read), simulation_settings(cfg_), what);
@@ -136,7 +136,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
     desk_.set_haptics(haptics_.get());
     desk_.set_keeper(keeper_.get());
 
-    input_ = std::make_unique<InputSource>(cfg_, sims_.rate(), hub_, io_.unixEventPort);
+    input_ = std::make_unique<InputSource>(cfg_.input, cfg_.input_clock, sims_.rate(), hub_, io_.unixEventPort);
     input_->pump(sims_.stages().ring());
     desk_.set_input(input_.get());
 

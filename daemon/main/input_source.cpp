@@ -11,34 +11,35 @@ constexpr std::size_t kReplayReadAhead = 4096;  // messages read from the sessio
 
 }  // namespace
 
-InputSource::InputSource(const DaemonConfig& config, double rate_hz, DeviceHub& hub, kj::UnixEventPort& port) {
-  if (config.input.kind == InputSpec::Kind::replay) {
-    open_replay(config, rate_hz, hub);
+InputSource::InputSource(const InputSpec& spec, InputClock clock, double rate_hz, DeviceHub& hub,
+                         kj::UnixEventPort& port) {
+  if (spec.kind == InputSpec::Kind::replay) {
+    open_replay(spec, rate_hz, hub);
     return;
   }
   input::DeviceManagerOptions o;
-  o.discovery = config.input.kind == InputSpec::Kind::evdev ? input::Discovery::inotify : input::Discovery::automatic;
+  o.discovery = spec.kind == InputSpec::Kind::evdev ? input::Discovery::inotify : input::Discovery::automatic;
   devices_ = std::make_unique<input::DeviceManager>(hub, o);
   devices_->start();
   events_ = std::make_unique<DeviceEvents>(port, *devices_);
   log::info("input: live devices ({}), {} attached, clock {}", devices_->discovery(), devices_->attached(),
-            config.input_clock == InputClock::device ? "device" : "arrival");
+            clock == InputClock::device ? "device" : "arrival");
 }
 
 InputSource::~InputSource() = default;
 
-void InputSource::open_replay(const DaemonConfig& config, double rate_hz, DeviceHub& hub) {
+void InputSource::open_replay(const InputSpec& spec, double rate_hz, DeviceHub& hub) {
   // Every line checked before the first tick (one at a time: bounded
   // memory), so a bad line deep in the file is named now, not mid-run.
-  input::check_session(config.input.replay);
-  input::ReplaySource source(config.input.replay, rate_hz,
+  input::check_session(spec.replay);
+  input::ReplaySource source(spec.replay, rate_hz,
                              [&hub](std::uint8_t slot, const input::DeviceInfo& info) { return hub.bind(slot, info); });
   source.start(1);
   // The attaches are bound here; the frames are read on the feed's own
   // thread, the first ring's worth before the first tick.
   for (std::size_t d = 0; d < source.header().devices.size(); ++d) hub.push(*source.next(), "attach");
   replay_ = std::make_unique<input::ReplayFeed>(std::move(source), kReplayReadAhead);
-  log::info("input: replaying {} ({} devices)", config.input.replay.string(), replay_->header().devices.size());
+  log::info("input: replaying {} ({} devices)", spec.replay.string(), replay_->header().devices.size());
 }
 
 std::optional<kj::Promise<void>> InputSource::run() {

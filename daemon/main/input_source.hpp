@@ -13,18 +13,18 @@
 
 #include "input/device_manager.hpp"
 #include "input/replay_feed.hpp"
-#include "main/config.hpp"
 #include "main/device_events.hpp"
 #include "main/device_hub.hpp"
+#include "main/input_spec.hpp"
 
 namespace sculpt::daemon {
 
 class InputSource {
  public:
-  // Opens what `config.input` names; throws naming what is wrong (a bad
+  // Opens what `spec` names; throws naming what is wrong (a bad
   // session line, no devices subsystem). A replay's attaches and first
   // frames are queued here, before the first tick.
-  InputSource(const DaemonConfig& config, double rate_hz, DeviceHub& hub, kj::UnixEventPort& port);
+  InputSource(const InputSpec& spec, InputClock clock, double rate_hz, DeviceHub& hub, kj::UnixEventPort& port);
   ~InputSource();
 
   // The live devices' event dispatch for the io loop's task set (none for a replay).
@@ -43,7 +43,7 @@ class InputSource {
   void close();
 
  private:
-  void open_replay(const DaemonConfig& config, double rate_hz, DeviceHub& hub);
+  void open_replay(const InputSpec& spec, double rate_hz, DeviceHub& hub);
 
   std::unique_ptr<input::ReplayFeed> replay_;
   bool replay_failed_ = false;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "loop/scene_tools.hpp"
 #include "scene/scene_world.hpp"
 #include "sim/state_bytes.hpp"
 
@@ -40,7 +41,7 @@ Replica::Replica(std::shared_ptr<const SceneBundle> bundle, const scene::Scene& 
       rate_(bundle_->settings.rate_hz.value_or(scene.settings.rate_hz)),
       history_(history),
       world_(scene::build_world(scene, rate_)),
-      driver_(tool_driver(scene, bundle_->settings, rate_)),
+      driver_(loop::tool_driver(scene, bundle_->settings, rate_)),
       mapper_(driver_.size()),
       tools_(scene.tools.size()),
       sink_(std::make_unique<Sink>(*this)) {

@@ -1,5 +1,5 @@
 // A scene as the bytes it was built from: the scene file's text, every mesh
-// file it names, and the build settings (main/simulation.hpp). A sculpt's
+// file it names, and the build settings (loop/simulation_settings.hpp). A sculpt's
 // store and a .sculpt file keep the bundle, so recovery and another machine
 // build the same world bit for bit, whatever became of the files since.
 #pragma once
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "main/simulation.hpp"
+#include "loop/simulation_settings.hpp"
 #include "scene/scene.hpp"
 
 namespace sculpt::daemon {
@@ -22,7 +22,7 @@ struct SceneBundle {
     std::string bytes;
   };
   std::vector<MeshFile> meshes;
-  SimulationSettings settings;
+  loop::SimulationSettings settings;
 
   std::vector<std::byte> bytes() const;
   // Throws std::invalid_argument naming what is wrong: the format, a size
@@ -33,7 +33,7 @@ struct SceneBundle {
 
 // Reads the scene file and its mesh files. Throws scene::SceneError /
 // files::FileError naming the file.
-SceneBundle read_bundle(const std::filesystem::path& scene, const SimulationSettings& settings);
+SceneBundle read_bundle(const std::filesystem::path& scene, const loop::SimulationSettings& settings);
 
 // The scene, parsed and its meshes loaded from the bundle's own bytes
 // (written to a private temporary directory for the importer, removed

@@ -14,10 +14,18 @@
 #include <string>
 
 #include "loop/sim_thread.hpp"
-#include "main/config.hpp"
 #include "main/simulation.hpp"
 
 namespace sculpt::daemon {
+
+// What the sim thread's start reads of the daemon's configuration; none of
+// it changes before a restart (main/config_reload.hpp).
+struct SimHostSettings {
+  bool realtime = false;
+  int realtime_priority = 50;
+  std::optional<double> wake_early_us;  // unset: kRealtimeWakeEarlyUs with realtime, else 0
+  double duration_s = 0.0;              // 0: run until stopped
+};
 
 class SimHost {
  public:
@@ -30,9 +38,7 @@ class SimHost {
     std::shared_ptr<const SceneBundle> bundle;
   };
 
-  // Reads the sim thread's settings (realtime, wake_early_us, duration_s)
-  // from `config` at each start: `config` outlives the host.
-  explicit SimHost(const DaemonConfig& config) : cfg_(config) {}
+  explicit SimHost(SimHostSettings settings) : cfg_(settings) {}
   ~SimHost() { stop(); }
   SimHost(const SimHost&) = delete;
   SimHost& operator=(const SimHost&) = delete;
@@ -87,7 +93,7 @@ class SimHost {
   void take_in(Simulation p, std::uint64_t first_tick);
   loop::SimThreadOptions thread_options(std::uint64_t first_tick) const;
 
-  const DaemonConfig& cfg_;
+  const SimHostSettings cfg_;
   scene::Scene scene_;
   std::shared_ptr<const SceneBundle> bundle_;
   double rate_ = 1000.0;

@@ -1,9 +1,5 @@
 #include "main/simulation.hpp"
 
-#include <fmt/format.h>
-
-#include <stdexcept>
-
 #include "loop/scene_tools.hpp"
 #include "main/replica.hpp"
 #include "scene/scene_world.hpp"
@@ -12,59 +8,14 @@ namespace sculpt::daemon {
 
 static_assert(scene::kMaxTools == input::kMaxTools, "the scene's tool limit is the input's");
 
-namespace {
-
-constexpr std::size_t kRingCapacity = 4096;  // io → sim messages in flight
-// A replay is queued as far ahead as this ring holds, less a slot per device
-// for a swap's re-attaches (~1 KiB a message; a
-// minute and more of a typical session), so an io thread starved for
-// seconds on a loaded machine still delivers every frame before its tick:
-// a late one would make the run differ from the recording.
-constexpr std::size_t kReplayRingCapacity = 16384;
-
-}  // namespace
-
-void check_settings(const SimulationSettings& s) {
-  auto check = [](const SettingRange& r, double v) {
-    if (!(v >= r.lo && v <= r.hi))
-      throw std::invalid_argument(fmt::format("{} is {}, not within [{}, {}]", r.name, v, r.lo, r.hi));
-  };
-  if (s.rate_hz) check(kRateRange, *s.rate_hz);
-  check(kToolMarginRange, s.tool_margin);
-  check(kSizeStepRange, s.size_step);
-  check(kMinScaleRange, s.min_scale);
-  check(kMaxScaleRange, s.max_scale);
-  check(kRingCapacityRange, static_cast<double>(s.ring_capacity));
-}
-
-SimulationSettings simulation_settings(const DaemonConfig& config) {
-  const bool replay = config.input.kind == InputSpec::Kind::replay;
-  return SimulationSettings{.rate_hz = config.rate_hz,
-                            .tool_margin = config.tool_margin,
-                            .size_step = config.size_step,
-                            .min_scale = config.min_scale,
-                            .max_scale = config.max_scale,
-                            .ring_capacity = replay ? kReplayRingCapacity : kRingCapacity};
-}
-
-loop::ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings& settings, double rate) {
-  const auto specs = loop::tool_specs(scene);
-  loop::DriverLimits limits;
-  limits.bounds = loop::tool_bounds(loop::mesh_bounds(scene), specs, settings.tool_margin);
-  limits.size_step = settings.size_step;
-  limits.min_scale = settings.min_scale;
-  limits.max_scale = settings.max_scale;
-  return loop::ToolDriver(specs, limits, rate);
-}
-
-Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board,
+Simulation build_simulation(scene::Scene scene, const loop::SimulationSettings& settings, haptics::FeedbackBoard& board,
                             std::span<const std::byte> state) {
-  check_settings(settings);
+  loop::check_settings(settings);
   Simulation s;
   s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);
   s.tools = scene.tools.size();
   s.world = scene::build_world(scene, s.rate);
-  s.stages = std::make_unique<SculptStages>(tool_driver(scene, settings, s.rate), board, settings.ring_capacity);
+  s.stages = std::make_unique<SculptStages>(loop::tool_driver(scene, settings, s.rate), board, settings.ring_capacity);
   if (!state.empty()) {
     const ReplicaState parts = split_replica_state(state);
     s.world->restore_state(parts.world);

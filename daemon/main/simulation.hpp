@@ -12,7 +12,7 @@
 #include <optional>
 
 #include "haptics/feedback_board.hpp"
-#include "main/config.hpp"
+#include "loop/simulation_settings.hpp"
 #include "main/pipeline.hpp"
 #include "scene/scene.hpp"
 #include "server/daemon_control.hpp"
@@ -20,21 +20,6 @@
 #include "sim/world.hpp"
 
 namespace sculpt::daemon {
-
-// What of the daemon's configuration a build needs, copied when it starts.
-struct SimulationSettings {
-  std::optional<double> rate_hz;   // --rate / the config; unset: the scene's
-  double tool_margin = 0.1;        // loop::DriverLimits
-  double size_step = 1.15;
-  double min_scale = 0.25;
-  double max_scale = 4.0;
-  std::size_t ring_capacity = 4096;  // io → sim input messages in flight
-};
-
-// The settings within the ranges of main/config.hpp (k*Range): a stored
-// bundle's are held to what a config file is. Throws std::invalid_argument
-// naming the setting, its value and its range.
-void check_settings(const SimulationSettings& settings);
 
 struct SceneBundle;
 
@@ -57,17 +42,11 @@ struct Simulation {
   server::SceneInfo info;          // what viewers get told about the scene
 };
 
-// What a build reads of `config`, copied for the worker thread.
-SimulationSettings simulation_settings(const DaemonConfig& config);
-
-// The scene's tools as the driver moves them, within the settings' limits.
-loop::ToolDriver tool_driver(const scene::Scene& scene, const SimulationSettings& settings, double rate);
-
 // Throws (scene::SceneError, std::invalid_argument) naming what is wrong;
 // scene::build_world makes the checks every reader of a scene shares.
 // `state` (Replica::state(), main/replica.hpp): where the world, the tools
 // and the controls continue from (a recovered sculpt); empty: the scene as loaded.
-Simulation build_simulation(scene::Scene scene, const SimulationSettings& settings, haptics::FeedbackBoard& board,
+Simulation build_simulation(scene::Scene scene, const loop::SimulationSettings& settings, haptics::FeedbackBoard& board,
                             std::span<const std::byte> state = {});
 
 // What streaming clients need to know about a scene that never changes while it is loaded.

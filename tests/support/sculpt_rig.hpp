@@ -28,7 +28,7 @@ class Rig {
   explicit Rig(JournalTap* tap, const std::string& session, std::span<const std::byte> state = {},
                std::shared_ptr<SceneBundle> bundle = nullptr)
       : bundle_(bundle ? std::move(bundle)
-                       : std::make_shared<SceneBundle>(read_bundle("builtin:default", SimulationSettings{}))),
+                       : std::make_shared<SceneBundle>(read_bundle("builtin:default", loop::SimulationSettings{}))),
         board_(static_cast<int>(input::kMaxTools)),
         sim_(build_simulation(load_bundle(*bundle_), bundle_->settings, board_, state)),
         router_(loop::tool_routes(sim_.scene)),
