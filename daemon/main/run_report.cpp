@@ -14,7 +14,7 @@ namespace {
 bool write_output(const char* flag, const std::string& path, const std::string& text) {
   if (path.empty()) return true;
   try {
-    scene::write_file_atomically(path, text);
+    files::write_file_atomically(path, text);
     return true;
   } catch (const std::exception& e) {
     log::err("{}: {}", flag, e.what());

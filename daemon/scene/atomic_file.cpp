@@ -14,9 +14,8 @@
 #include <fmt/format.h>
 
 #include "files/write_all.hpp"
-#include "scene/errors.hpp"
 
-namespace sculpt::scene {
+namespace sculpt::files {
 namespace fs = std::filesystem;
 namespace {
 
@@ -40,7 +39,7 @@ void remove_stale_temps(const fs::path& dir, const std::string& prefix) {
 
 void write_file_atomically(const fs::path& file, std::string_view bytes) {
   const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
-  if (file.filename().empty()) throw ExportError(file, "no file name");
+  if (file.filename().empty()) throw FileError(file, "no file name");
   const std::string prefix = "." + file.filename().string() + ".tmp-";
   remove_stale_temps(dir, prefix);
   // An unnamed file (O_TMPFILE): a writer killed while writing leaves
@@ -55,14 +54,14 @@ void write_file_atomically(const fs::path& file, std::string_view bytes) {
   if (!unnamed) {
     std::string tmpl = (dir / (prefix + "XXXXXX")).string();
     fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
-    if (fd < 0) throw ExportError(file, "cannot create a file in " + dir.string() + ": " + std::strerror(errno));
+    if (fd < 0) throw FileError(file, "cannot create a file in " + dir.string() + ": " + std::strerror(errno));
     name = tmpl;
   }
   auto fail = [&](const std::string& step) {
     const int err = errno;
     ::close(fd);
     if (!name.empty()) ::unlink(name.c_str());
-    throw ExportError(file, step + ": " + std::strerror(err));
+    throw FileError(file, step + ": " + std::strerror(err));
   };
   ::fchmod(fd, 0644);  // whatever the umask: an exported mesh is meant to be shared
   if (!files::write_all(fd, bytes)) fail("write failed");
@@ -82,12 +81,12 @@ void write_file_atomically(const fs::path& file, std::string_view bytes) {
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(name.c_str());
-    throw ExportError(file, std::string("close failed: ") + std::strerror(err));
+    throw FileError(file, std::string("close failed: ") + std::strerror(err));
   }
   if (::rename(name.c_str(), file.c_str()) != 0) {
     const int err = errno;
     ::unlink(name.c_str());
-    throw ExportError(file, std::string("cannot replace the file: ") + std::strerror(err));
+    throw FileError(file, std::string("cannot replace the file: ") + std::strerror(err));
   }
   const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dfd >= 0) {  // the data is in place; a failing directory fsync is not worth failing the export
@@ -96,4 +95,4 @@ void write_file_atomically(const fs::path& file, std::string_view bytes) {
   }
 }
 
-}  // namespace sculpt::scene
+}  // namespace sculpt::files

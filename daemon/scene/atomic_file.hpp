@@ -5,12 +5,14 @@
 #include <filesystem>
 #include <string_view>
 
-namespace sculpt::scene {
+#include "files/regular_file.hpp"  // FileError
+
+namespace sculpt::files {
 
 // Temp file in the same directory (rename is only atomic within one file
 // system), write, fsync, rename over `file`, fsync the directory so the
-// rename itself survives a power cut. Throws ExportError; on failure the
+// rename itself survives a power cut. Throws FileError; on failure the
 // temp file is removed and `file` is untouched.
 void write_file_atomically(const std::filesystem::path& file, std::string_view bytes);
 
-}  // namespace sculpt::scene
+}  // namespace sculpt::files
