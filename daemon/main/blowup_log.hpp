@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "loop/sim_thread.hpp"
+#include "simloop/sim_thread.hpp"
 
 namespace sculpt::daemon {
 

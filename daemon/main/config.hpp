@@ -13,9 +13,9 @@
 #include <toml++/toml.h>
 
 #include "haptics/haptics_engine.hpp"
-#include "loop/simulation_settings.hpp"
-#include "main/input_spec.hpp"
-#include "main/log.hpp"
+#include "simloop/simulation_settings.hpp"
+#include "devices/input_spec.hpp"
+#include "log/log.hpp"
 
 namespace sculpt::daemon {
 
@@ -34,7 +34,7 @@ class ConfigError : public std::runtime_error {
 InputSpec parse_input_spec(std::string_view text, std::string_view what);
 std::string to_string(const InputSpec& spec);
 
-// [store]: autosave, history and recovery (main/keeper.hpp, docs/store.md).
+// [store]: autosave, history and recovery (keeper/keeper.hpp, docs/store.md).
 struct StoreConfig {
   bool enabled = true;
   // "": $STATE_DIRECTORY (systemd's StateDirectory=), else

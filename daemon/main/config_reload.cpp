@@ -4,7 +4,7 @@
 #include <optional>
 #include <utility>
 
-#include "main/log.hpp"
+#include "log/log.hpp"
 
 namespace sculpt::daemon {
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <filesystem>
 
-#include "loop/stats.hpp"
-#include "main/scene_bundle.hpp"
+#include "simloop/stats.hpp"
+#include "keeper/scene_bundle.hpp"
 
 namespace sculpt::daemon {
 

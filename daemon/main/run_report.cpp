@@ -4,9 +4,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "loop/stats_json.hpp"
-#include "main/log.hpp"
-#include "scene/atomic_file.hpp"
+#include "simloop/stats_json.hpp"
+#include "log/log.hpp"
+#include "files/atomic_file.hpp"
 
 namespace sculpt::daemon {
 namespace {

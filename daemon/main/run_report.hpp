@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "loop/stats.hpp"
+#include "simloop/stats.hpp"
 #include "main/config.hpp"
 
 namespace sculpt::daemon {

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "scene/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 #include "scene/errors.hpp"
 
 namespace sculpt::scene {

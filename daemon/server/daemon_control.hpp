@@ -9,7 +9,7 @@
 
 #include <kj/async.h>
 
-#include "loop/stats.hpp"
+#include "simloop/stats.hpp"
 
 namespace sculpt::server {
 

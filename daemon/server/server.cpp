@@ -15,7 +15,7 @@
 #include <fmt/format.h>
 
 #include "files/unique_fd.hpp"
-#include "loop/sim_thread.hpp"
+#include "simloop/sim_thread.hpp"
 #include "server/checked_stream.hpp"
 #include "server/encode.hpp"
 #include "server/interfaces.hpp"

@@ -17,7 +17,7 @@
 
 #include <kj/async.h>
 
-#include "main/keeper.hpp"
+#include "keeper/keeper.hpp"
 #include "support/sculpt_rig.hpp"
 
 namespace sd = sculpt::daemon;

@@ -27,8 +27,8 @@
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
-#include "loop/scene_tools.hpp"
-#include "loop/tool_driver.hpp"
+#include "simloop/scene_tools.hpp"
+#include "simloop/tool_driver.hpp"
 #include "scene/scene.hpp"
 #include "sim/world.hpp"
 

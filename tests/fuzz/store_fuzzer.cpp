@@ -16,9 +16,9 @@
 #include <optional>
 #include <algorithm>
 
-#include "main/journal_codec.hpp"
-#include "main/keeper.hpp"
-#include "main/log.hpp"
+#include "keeper/journal_codec.hpp"
+#include "keeper/keeper.hpp"
+#include "log/log.hpp"
 #include "store/codec.hpp"
 #include "store/store.hpp"
 #include "store_fuzz_base.hpp"

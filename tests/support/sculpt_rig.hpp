@@ -15,10 +15,10 @@
 #include "haptics/feedback_board.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
-#include "loop/scene_tools.hpp"
-#include "main/journal.hpp"
-#include "main/scene_bundle.hpp"
-#include "main/simulation.hpp"
+#include "simloop/scene_tools.hpp"
+#include "keeper/journal.hpp"
+#include "keeper/scene_bundle.hpp"
+#include "host/simulation.hpp"
 
 namespace sculpt::daemon::testing {
 

@@ -1,6 +1,6 @@
 // `sculptctl status [--json]` and `sculptctl devices [--json]`: what a running
 // sculptd says about itself. status --json prints exactly the keys of
-// `sculptd --stats-json` (loop/stats_json.hpp builds both).
+// `sculptd --stats-json` (simloop/stats_json.hpp builds both).
 #include <cstdio>
 #include <iostream>
 
@@ -9,7 +9,7 @@
 
 #include "commands.hpp"
 #include "daemon_link.hpp"
-#include "loop/stats_json.hpp"
+#include "simloop/stats_json.hpp"
 #include "server/encode.hpp"
 
 namespace sculpt::ctl {

@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "scene/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 #include "scene/errors.hpp"
 #include "scene/mesh_import.hpp"
 #include "sim/shapes.hpp"

@@ -15,11 +15,11 @@
 #include <gtest/gtest.h>
 
 #include "haptics/feedback_board.hpp"
-#include "loop/sim_thread.hpp"
+#include "simloop/sim_thread.hpp"
 #include <nlohmann/json.hpp>
 
-#include "loop/stats_json.hpp"
-#include "main/pipeline.hpp"
+#include "simloop/stats_json.hpp"
+#include "host/sculpt_stages.hpp"
 #include "server/encode.hpp"
 #include "server/published_state.hpp"
 #include "sim/shapes.hpp"
