@@ -30,6 +30,10 @@
 // could not write in memory (store::Limits::max_pending_bytes) and retries;
 // a small marker outside the store (keeper/save_marker.hpp) tells the next
 // start what a crash meanwhile lost.
+//
+// Each thread's code has its own file: journal_thread.cpp, store_thread.cpp
+// (with snapshots.cpp), replica_thread.cpp; recovery.cpp is recover() and
+// open_file(); keeper.cpp the start, the stop and the io thread's API.
 #pragma once
 
 #include <chrono>

@@ -1,8 +1,12 @@
-// The keeper's requests and the store thread's jobs (keeper/keeper.hpp):
-// shared by keeper.cpp and keeper_store.cpp only.
+// The keeper's requests, the store thread's jobs and what its threads share
+// (keeper/keeper.hpp): for the keeper's own files only (keeper.cpp, the
+// thread files journal_thread.cpp, store_thread.cpp, replica_thread.cpp,
+// snapshots.cpp and recovery.cpp).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -13,6 +17,21 @@
 #include "keeper/keeper.hpp"
 
 namespace sculpt::daemon {
+
+namespace keeper_detail {
+using Clock = std::chrono::steady_clock;
+// The journal and replica threads wait at most this long for work.
+inline constexpr auto kIdleWait = std::chrono::milliseconds(10);
+inline std::int64_t wall_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+// The snapshot's meta format (snapshots.cpp writes it, recovery.cpp reads it).
+inline constexpr int kMetaFormat = 1;
+// The scene's files as a bundle, at most: its text (1 MiB at most) and its
+// meshes. Recovery reads no larger one, so none is written.
+inline constexpr std::uint64_t kMaxBundleBytes = std::uint64_t{256} << 20;
+}  // namespace keeper_detail
 
 struct Keeper::Request {
   enum class Kind { undo, redo, export_file };
@@ -56,6 +75,29 @@ struct Keeper::Job {
   const char* why = "";
   // export_file
   std::unique_ptr<Request> request;
+};
+
+// An undo or redo between its planning and the sim thread's writing it.
+struct Keeper::InFlight {
+  std::unique_ptr<Request> request;
+  struct Sent {
+    std::vector<std::uint32_t> blocks;
+    std::vector<std::byte> images;  // the sim thread's copy (it may scribble on it)
+    EditImages message;
+  };
+  std::deque<Sent> sent;  // a deque: the sim thread holds pointers into it
+  std::size_t queued = 0, applied = 0;
+  bool closing = false;   // sent: the mark that closes the open strokes (id 0); the plan follows
+  EditResult result;
+};
+
+// What `history` pages through: the strokes in chunks shared with the
+// replica thread, each rebuilt only when one of its strokes changed.
+struct Keeper::HistoryView {
+  std::vector<std::shared_ptr<const std::vector<StrokeInfo>>> chunks;  // in stroke order
+  std::vector<std::uint64_t> starts;  // the index of each chunk's first stroke
+  std::uint64_t total = 0, budget = 0, used = 0, dropped = 0;
+  std::uint32_t scene = 0;
 };
 
 }  // namespace sculpt::daemon

@@ -64,7 +64,7 @@ inline std::shared_ptr<daemon::SceneBundle> tiny_bundle() {
   return b;
 }
 
-// A stroke as the keeper stores it (keeper/keeper_store.cpp).
+// A stroke as the keeper stores it (keeper/snapshots.cpp).
 inline std::vector<std::byte> stroke_bytes(const daemon::Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);

@@ -577,7 +577,7 @@ TEST(Untrusted, AnAttachWithABindingNoDeviceHasStopsTheReplayThere) {
   EXPECT_TRUE(says(o.rec->lost, "is unreadable (binding: 200 axes, at most 16)")) << joined(o.rec->lost);
 }
 
-// A stroke as keeper_store.cpp stores it.
+// A stroke as keeper/snapshots.cpp stores it.
 std::vector<std::byte> stroke_blob(const Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);
