@@ -77,7 +77,7 @@ void DeviceHub::use_scene(const scene::Scene& scene, std::size_t tools, SculptSt
   tools_ = tools;
   stages_ = &stages;
   clock_.set_rate(rate);
-  router_.set_routes(loop::tool_routes(scene));
+  router_.set_routes(simloop::tool_routes(scene));
 }
 
 void DeviceHub::push(const input::InputMessage& m, const char* what) {

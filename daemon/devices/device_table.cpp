@@ -16,7 +16,7 @@ void DeviceTable::attached(std::uint8_t slot, const input::DeviceInfo& info, con
   d.kind = std::string(input::to_string(info.kind));
   d.connected = true;
   d.ff = info.has_ff(FF_CONSTANT) ? 2 : info.has_ff(FF_RUMBLE) ? 1 : 0;
-  for (std::uint32_t t = 0; t < input::kMaxTools; ++t)
+  for (std::uint32_t t = 0; t < sim::kMaxTools; ++t)
     if (binding.drives(t)) d.tools.push_back(t);
   entries_[slot] = std::move(d);
 }

@@ -25,7 +25,7 @@ std::vector<std::string> mesh_names(const scene::Scene& s) {
   return names;
 }
 
-kj::Promise<std::string> SceneLoader::load(std::function<SceneSource()> read, loop::SimulationSettings settings,
+kj::Promise<std::string> SceneLoader::load(std::function<SceneSource()> read, simloop::SimulationSettings settings,
                                            const char* what) {
   // Busy from the request until the swap: the build, and the wait for the sim thread to stop.
   if (loading_ || worker_.busy()) return std::string("a scene is being loaded already; try again when it is done");

@@ -48,7 +48,7 @@ class SceneLoader {
   // Builds read()'s scene with `settings` on the worker, then swaps it in.
   // Resolves to "" or the error (the running sculpt is then untouched). The
   // build goes on when the caller goes away (a client disconnecting).
-  kj::Promise<std::string> load(std::function<SceneSource()> read, loop::SimulationSettings settings, const char* what);
+  kj::Promise<std::string> load(std::function<SceneSource()> read, simloop::SimulationSettings settings, const char* what);
 
   // Frees `parts` on the disposer thread: at once, or after what it is
   // freeing now (back-to-back loads queue up; the io loop frees nothing).

@@ -5,15 +5,15 @@
 
 namespace sculpt::daemon {
 
-SculptStages::SculptStages(loop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity)
+SculptStages::SculptStages(simloop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity)
     : driver_(std::move(driver)),
       board_(board),
       felt_(driver_.size(), sim::ContactRenderer(driver_.dt())),
       ring_(ring_capacity),
       mapper_(driver_.size()) {
-  if (driver_.size() > input::kMaxTools)
+  if (driver_.size() > sim::kMaxTools)
     throw std::invalid_argument("the scene has " + std::to_string(driver_.size()) + " tools; at most " +
-                                std::to_string(input::kMaxTools) + " can be driven");
+                                std::to_string(sim::kMaxTools) + " can be driven");
 }
 
 void SculptStages::input(std::uint64_t tick, std::span<sim::Tool> tools) {
@@ -97,7 +97,7 @@ void SculptStages::paused_changed(std::uint64_t tick, bool paused) {
 
 void SculptStages::publish(std::uint64_t tick, const sim::World<float>& world) {
   if (tap_) tap_->reached(tick);
-  if (published_) published_->publish(tick, world, tools_, loop::monotonic_ns());
+  if (published_) published_->publish(tick, world, tools_, simloop::monotonic_ns());
   const auto feedback = world.feedback();
   for (std::size_t t = 0; t < driver_.size() && t < feedback.size(); ++t) {
     const sim::Tool& tool = driver_.tool(t);

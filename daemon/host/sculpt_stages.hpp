@@ -24,10 +24,10 @@
 
 namespace sculpt::daemon {
 
-class SculptStages final : public loop::TickStages {
+class SculptStages final : public simloop::TickStages {
  public:
-  // tools ≤ input::kMaxTools. The ring carries io → sim messages.
-  SculptStages(loop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity);
+  // tools ≤ sim::kMaxTools. The ring carries io → sim messages.
+  SculptStages(simloop::ToolDriver driver, haptics::FeedbackBoard& board, std::size_t ring_capacity);
 
   // io thread: the producer side of the input ring.
   concurrency::SpscRing<input::InputMessage>& ring() { return ring_; }
@@ -52,12 +52,12 @@ class SculptStages final : public loop::TickStages {
   std::uint32_t undo_presses() const { return undo_presses_.load(std::memory_order_relaxed); }
   std::uint32_t redo_presses() const { return redo_presses_.load(std::memory_order_relaxed); }
 
-  const loop::ToolDriver& driver() const { return driver_; }
+  const simloop::ToolDriver& driver() const { return driver_; }
   // Which devices are attached, with their bindings (read while the sim
   // thread is stopped: a scene swap carries them over).
   const input::ControlMapper& mapper() const { return mapper_; }
   input::ControlMapper& mapper() { return mapper_; }
-  loop::ToolDriver& driver() { return driver_; }
+  simloop::ToolDriver& driver() { return driver_; }
 
   // Where the publish stage hands the tick's positions and tools to the
   // streaming server (nullptr: nowhere). Set before the sim thread starts.
@@ -68,7 +68,7 @@ class SculptStages final : public loop::TickStages {
   bool fits(const EditImages& e) const;
   std::size_t take_messages(std::uint64_t tick);
 
-  loop::ToolDriver driver_;
+  simloop::ToolDriver driver_;
   haptics::FeedbackBoard& board_;
   std::vector<sim::ContactRenderer> felt_;  // per tool: raw reaction → felt contact
   concurrency::SpscRing<input::InputMessage> ring_;

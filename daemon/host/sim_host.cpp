@@ -31,8 +31,8 @@ void SimHost::take_in(Simulation p, std::uint64_t first_tick) {
   published_->start_at(first_tick);
 }
 
-loop::SimThreadOptions SimHost::thread_options(std::uint64_t first_tick) const {
-  loop::SimThreadOptions so;
+simloop::SimThreadOptions SimHost::thread_options(std::uint64_t first_tick) const {
+  simloop::SimThreadOptions so;
   so.rate_hz = rate_;
   so.realtime = cfg_.realtime;
   so.realtime_priority = cfg_.realtime_priority;
@@ -41,7 +41,7 @@ loop::SimThreadOptions SimHost::thread_options(std::uint64_t first_tick) const {
   // the period (a high --rate shrinks it below the configured value).
   // The default spins only on SCHED_FIFO; a configured value always does.
   const double early_us = cfg_.wake_early_us.value_or(cfg_.realtime ? kRealtimeWakeEarlyUs : 0.0);
-  so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), loop::max_wake_early_ns(rate_));
+  so.wake_early_ns = std::min<std::int64_t>(std::llround(early_us * 1e3), simloop::max_wake_early_ns(rate_));
   so.wake_early_needs_fifo = !cfg_.wake_early_us.has_value();
   so.first_tick = first_tick;
   // --duration counts simulated seconds across scene swaps (the rate may change).
@@ -52,9 +52,9 @@ loop::SimThreadOptions SimHost::thread_options(std::uint64_t first_tick) const {
 }
 
 void SimHost::start(std::uint64_t first_tick, bool paused) {
-  auto sim = std::make_unique<loop::SimThread>(*world_, *stages_, tools_, thread_options(first_tick));
+  auto sim = std::make_unique<simloop::SimThread>(*world_, *stages_, tools_, thread_options(first_tick));
   if (paused) sim->request_pause(true);
-  const loop::RealtimeResult rt = sim->start();
+  const simloop::RealtimeResult rt = sim->start();
   sim_ = std::move(sim);
   for (const auto& w : rt.warnings) log::warning("{}", w);
   if (cfg_.realtime && rt.fifo)

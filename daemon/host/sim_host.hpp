@@ -77,11 +77,11 @@ class SimHost {
   std::unique_ptr<server::PublishedReader> take_reader() { return std::move(reader_); }
 
   // nullptr while no thread runs.
-  loop::SimThread* thread() { return sim_.get(); }
+  simloop::SimThread* thread() { return sim_.get(); }
   std::uint64_t current_tick() const { return sim_ ? sim_->ticks() : pending_start_tick_; }
   double simulated_s() const;
   // The running thread's stats (zeros while none runs).
-  const loop::LoopStats& stats() const { return sim_ ? sim_->stats() : idle_stats_; }
+  const simloop::LoopStats& stats() const { return sim_ ? sim_->stats() : idle_stats_; }
   bool paused() const {
     if (stop_requested_ && paused_after_stop_) return *paused_after_stop_;
     return sim_ ? sim_->paused() : pending_start_paused_;
@@ -91,7 +91,7 @@ class SimHost {
 
  private:
   void take_in(Simulation p, std::uint64_t first_tick);
-  loop::SimThreadOptions thread_options(std::uint64_t first_tick) const;
+  simloop::SimThreadOptions thread_options(std::uint64_t first_tick) const;
 
   const SimHostSettings cfg_;
   scene::Scene scene_;
@@ -103,8 +103,8 @@ class SimHost {
   std::unique_ptr<server::PublishedState> published_;
   server::SceneInfo scene_info_;
   std::unique_ptr<server::PublishedReader> reader_;
-  std::unique_ptr<loop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
-  loop::LoopStats idle_stats_;
+  std::unique_ptr<simloop::SimThread> sim_;   // after world/stages: stopped (destroyed) first
+  simloop::LoopStats idle_stats_;
   std::uint64_t pending_start_tick_ = 0;
   bool pending_start_paused_ = false;
   bool stop_requested_ = false;               // request_stop() until the swap

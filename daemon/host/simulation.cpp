@@ -6,16 +6,14 @@
 
 namespace sculpt::daemon {
 
-static_assert(scene::kMaxTools == input::kMaxTools, "the scene's tool limit is the input's");
-
-Simulation build_simulation(scene::Scene scene, const loop::SimulationSettings& settings, haptics::FeedbackBoard& board,
+Simulation build_simulation(scene::Scene scene, const simloop::SimulationSettings& settings, haptics::FeedbackBoard& board,
                             std::span<const std::byte> state) {
-  loop::check_settings(settings);
+  simloop::check_settings(settings);
   Simulation s;
   s.rate = settings.rate_hz.value_or(scene.settings.rate_hz);
   s.tools = scene.tools.size();
   s.world = scene::build_world(scene, s.rate);
-  s.stages = std::make_unique<SculptStages>(loop::tool_driver(scene, settings, s.rate), board, settings.ring_capacity);
+  s.stages = std::make_unique<SculptStages>(simloop::tool_driver(scene, settings, s.rate), board, settings.ring_capacity);
   if (!state.empty()) {
     const ReplicaState parts = split_replica_state(state);
     s.world->restore_state(parts.world);

@@ -46,7 +46,7 @@ struct Simulation {
 // scene::build_world makes the checks every reader of a scene shares.
 // `state` (Replica::state(), keeper/replica.hpp): where the world, the tools
 // and the controls continue from (a recovered sculpt); empty: the scene as loaded.
-Simulation build_simulation(scene::Scene scene, const loop::SimulationSettings& settings, haptics::FeedbackBoard& board,
+Simulation build_simulation(scene::Scene scene, const simloop::SimulationSettings& settings, haptics::FeedbackBoard& board,
                             std::span<const std::byte> state = {});
 
 // What streaming clients need to know about a scene that never changes while it is loaded.

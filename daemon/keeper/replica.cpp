@@ -41,7 +41,7 @@ Replica::Replica(std::shared_ptr<const SceneBundle> bundle, const scene::Scene& 
       rate_(bundle_->settings.rate_hz.value_or(scene.settings.rate_hz)),
       history_(history),
       world_(scene::build_world(scene, rate_)),
-      driver_(loop::tool_driver(scene, bundle_->settings, rate_)),
+      driver_(simloop::tool_driver(scene, bundle_->settings, rate_)),
       mapper_(driver_.size()),
       tools_(scene.tools.size()),
       sink_(std::make_unique<Sink>(*this)) {
@@ -120,7 +120,7 @@ void Replica::restore_state(std::span<const std::byte> bytes) {
   const ReplicaState parts = split_replica_state(bytes);
   // Driver and mapper into copies first: the world (the likeliest to
   // refuse) checks everything before it changes anything.
-  loop::ToolDriver driver = driver_;
+  simloop::ToolDriver driver = driver_;
   driver.restore_state(parts.driver);
   input::ControlMapper mapper = mapper_;
   mapper.restore_state(parts.mapper);

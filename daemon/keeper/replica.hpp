@@ -62,7 +62,7 @@ class Replica {
   const std::shared_ptr<const SceneBundle>& bundle() const { return bundle_; }
   std::uint32_t scene_number() const { return scene_number_; }
   std::uint64_t first_tick() const { return first_tick_; }
-  const loop::ToolDriver& driver() const { return driver_; }
+  const simloop::ToolDriver& driver() const { return driver_; }
   const input::ControlMapper& mapper() const { return mapper_; }
   double rate() const { return rate_; }
 
@@ -76,7 +76,7 @@ class Replica {
   double rate_;
   History& history_;
   std::unique_ptr<sim::World<float>> world_;
-  loop::ToolDriver driver_;
+  simloop::ToolDriver driver_;
   input::ControlMapper mapper_;
   std::vector<sim::Tool> tools_;
   std::unique_ptr<Sink> sink_;

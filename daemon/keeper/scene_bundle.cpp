@@ -44,7 +44,7 @@ std::vector<std::byte> SceneBundle::bytes() const {
   sim::StateWriter w(out);
   w.value(kMagic), w.value(kFormat);
   put_text(w, file), put_text(w, text);
-  const loop::SimulationSettings& s = settings;
+  const simloop::SimulationSettings& s = settings;
   w.value(static_cast<std::uint8_t>(s.rate_hz.has_value())), w.value(s.rate_hz.value_or(0.0));
   w.value(s.tool_margin), w.value(s.size_step), w.value(s.min_scale), w.value(s.max_scale);
   w.value(static_cast<std::uint64_t>(s.ring_capacity));
@@ -65,19 +65,19 @@ SceneBundle SceneBundle::from_bytes(std::span<const std::byte> bytes) {
   std::uint8_t has_rate = 0;
   double rate = 0;
   std::uint64_t ring = 0, meshes = 0;
-  loop::SimulationSettings& s = b.settings;
+  simloop::SimulationSettings& s = b.settings;
   r.value(has_rate, "settings"), r.value(rate, "settings");
   r.value(s.tool_margin, "settings"), r.value(s.size_step, "settings"), r.value(s.min_scale, "settings");
   r.value(s.max_scale, "settings"), r.value(ring, "settings"), r.value(meshes, "mesh count");
   if (has_rate > 1) throw std::invalid_argument("scene bundle: the rate flag is " + std::to_string(has_rate));
   if (has_rate) s.rate_hz = rate;
   // As a config file's settings are held (the bundle's are the config's of the run that saved it).
-  if (ring > static_cast<std::uint64_t>(loop::kRingCapacityRange.hi))
+  if (ring > static_cast<std::uint64_t>(simloop::kRingCapacityRange.hi))
     throw std::invalid_argument(fmt::format("scene bundle: input ring capacity is {}, not within [{}, {}]", ring,
-                                            loop::kRingCapacityRange.lo, loop::kRingCapacityRange.hi));
+                                            simloop::kRingCapacityRange.lo, simloop::kRingCapacityRange.hi));
   s.ring_capacity = static_cast<std::size_t>(ring);
   try {
-    loop::check_settings(s);
+    simloop::check_settings(s);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("scene bundle: ") + e.what());
   }
@@ -93,7 +93,7 @@ SceneBundle SceneBundle::from_bytes(std::span<const std::byte> bytes) {
   return b;
 }
 
-SceneBundle read_bundle(const fs::path& scene_file, const loop::SimulationSettings& settings) {
+SceneBundle read_bundle(const fs::path& scene_file, const simloop::SimulationSettings& settings) {
   SceneBundle b;
   b.file = scene_file.string();
   b.settings = settings;

@@ -22,7 +22,7 @@ struct SceneBundle {
     std::string bytes;
   };
   std::vector<MeshFile> meshes;
-  loop::SimulationSettings settings;
+  simloop::SimulationSettings settings;
 
   std::vector<std::byte> bytes() const;
   // Throws std::invalid_argument naming what is wrong: the format, a size
@@ -33,7 +33,7 @@ struct SceneBundle {
 
 // Reads the scene file and its mesh files. Throws scene::SceneError /
 // files::FileError naming the file.
-SceneBundle read_bundle(const std::filesystem::path& scene, const loop::SimulationSettings& settings);
+SceneBundle read_bundle(const std::filesystem::path& scene, const simloop::SimulationSettings& settings);
 
 // The scene, parsed and its meshes loaded from the bundle's own bytes
 // (written to a private temporary directory for the importer, removed

@@ -58,7 +58,7 @@ void CliOptions::apply(DaemonConfig& c) const {
   if (scene) c.scene = *scene;
   if (socket) c.socket = *socket;
   if (rate_hz) {
-    if (!(*rate_hz >= loop::kRateRange.lo && *rate_hz <= loop::kRateRange.hi))
+    if (!(*rate_hz >= simloop::kRateRange.lo && *rate_hz <= simloop::kRateRange.hi))
       throw ConfigError("--rate: must be within [1, 100000] Hz");
     c.rate_hz = *rate_hz;
   }

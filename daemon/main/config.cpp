@@ -101,7 +101,7 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("scene", c.scene);
   r.get("socket", c.socket);
   double rate = 0;
-  if (r.get("rate_hz", rate, loop::kRateRange.lo, loop::kRateRange.hi)) c.rate_hz = rate;
+  if (r.get("rate_hz", rate, simloop::kRateRange.lo, simloop::kRateRange.hi)) c.rate_hz = rate;
   std::string s;
   if (r.get("input", s)) {
     try {
@@ -131,10 +131,10 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
 void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "tools", {"margin", "size_step", "min_scale", "max_scale"});
   const Reader r{file, t, "tools"};
-  r.get("margin", c.tool_margin, loop::kToolMarginRange.lo, loop::kToolMarginRange.hi);
-  r.get("size_step", c.size_step, loop::kSizeStepRange.lo, loop::kSizeStepRange.hi);
-  r.get("min_scale", c.min_scale, loop::kMinScaleRange.lo, loop::kMinScaleRange.hi);
-  r.get("max_scale", c.max_scale, loop::kMaxScaleRange.lo, loop::kMaxScaleRange.hi);
+  r.get("margin", c.tool_margin, simloop::kToolMarginRange.lo, simloop::kToolMarginRange.hi);
+  r.get("size_step", c.size_step, simloop::kSizeStepRange.lo, simloop::kSizeStepRange.hi);
+  r.get("min_scale", c.min_scale, simloop::kMinScaleRange.lo, simloop::kMinScaleRange.hi);
+  r.get("max_scale", c.max_scale, simloop::kMaxScaleRange.lo, simloop::kMaxScaleRange.hi);
 }
 
 void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {
@@ -264,14 +264,14 @@ DaemonConfig parse_config(std::string_view text, const std::filesystem::path& fi
   return c;
 }
 
-loop::SimulationSettings simulation_settings(const DaemonConfig& config) {
+simloop::SimulationSettings simulation_settings(const DaemonConfig& config) {
   const bool replay = config.input.kind == InputSpec::Kind::replay;
-  return loop::SimulationSettings{.rate_hz = config.rate_hz,
+  return simloop::SimulationSettings{.rate_hz = config.rate_hz,
                                   .tool_margin = config.tool_margin,
                                   .size_step = config.size_step,
                                   .min_scale = config.min_scale,
                                   .max_scale = config.max_scale,
-                                  .ring_capacity = replay ? loop::kReplayRingCapacity : loop::kLiveRingCapacity};
+                                  .ring_capacity = replay ? simloop::kReplayRingCapacity : simloop::kLiveRingCapacity};
 }
 
 DaemonConfig load_config(const std::filesystem::path& file, bool optional) {

@@ -83,7 +83,7 @@ struct DaemonConfig {
 // Parses config text; `file` names it in errors. Throws ConfigError.
 DaemonConfig parse_config(std::string_view text, const std::filesystem::path& file);
 // What a scene's build reads of `config` (host/simulation.hpp), copied for the worker thread.
-loop::SimulationSettings simulation_settings(const DaemonConfig& config);
+simloop::SimulationSettings simulation_settings(const DaemonConfig& config);
 
 // Reads and parses a file. A missing file is an error unless `optional`
 // (the default path may legitimately not exist): then the defaults.

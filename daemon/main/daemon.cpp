@@ -58,7 +58,7 @@ void Daemon::setup() {
   tasks_ = kj::heap<kj::TaskSet>(*this);
   // Before the io loop runs (and before READY), so here, once, the scene
   // loads on the io thread.
-  board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(input::kMaxTools));
+  board_ = std::make_unique<haptics::FeedbackBoard>(static_cast<int>(sim::kMaxTools));
   loader_ = std::make_unique<SceneLoader>(
       *tasks_, stopping_, *board_,
       [this] {
@@ -103,8 +103,8 @@ void Daemon::setup() {
   // Once per process, not at every scene swap: the kernel's settings that
   // hold up a real-time thread.
   if (cfg_.realtime) {
-    if (auto w = loop::preemption_warning(loop::current_preemption_model())) log::warning("{}", *w);
-    if (auto w = loop::compaction_warning(loop::current_compact_unevictable_allowed())) log::warning("{}", *w);
+    if (auto w = simloop::preemption_warning(simloop::current_preemption_model())) log::warning("{}", *w);
+    if (auto w = simloop::compaction_warning(simloop::current_compact_unevictable_allowed())) log::warning("{}", *w);
   }
 
   for (int sig : {SIGTERM, SIGINT, SIGHUP}) tasks_->add(watch_signal(sig));
@@ -219,7 +219,7 @@ int Daemon::shutdown(int status) {
   stop_threads();
   if (keeper_) log_keeper_stats(keeper_->stats());
   RunTotals totals;
-  totals.stats = loop::snapshot(sims_.stats(), sims_.rate());
+  totals.stats = simloop::reading(sims_.stats(), sims_.rate());
   totals.stats.devices = desk_.device_count();  // attached until now
   tasks_ = nullptr;
   input_->close();

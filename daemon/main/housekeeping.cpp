@@ -70,7 +70,7 @@ void Daemon::housekeep() {
     log::warning("{}", line);
   feed_watchdog(now);
   hub_.log_held_tunes(now);
-  const loop::SimThread* sim = sims_.thread();
+  const simloop::SimThread* sim = sims_.thread();
   if (!sim) return;
   announce_ready_once();
   if (sim->finished() && !sims_.swapping()) {
@@ -119,7 +119,7 @@ void Daemon::feed_watchdog(std::chrono::steady_clock::time_point now) {
 }
 
 std::string Daemon::status_line() {
-  const loop::SimThread* sim = sims_.thread();
+  const simloop::SimThread* sim = sims_.thread();
   return fmt::format("{} ticks, {} overruns, {} devices, {} FF uploads", sim ? sim->ticks() : 0,
                      sim ? sim->stats().overrun_log.total() : 0, desk_.device_count(), desk_.ff_uploads());
 }

@@ -109,7 +109,7 @@ kj::Promise<void> Server::accept_loop() {
     if (clients_.size() >= options_.max_clients) {
       // A connection that has said nothing yet makes room: silent or
       // half-open connections never lock the others out.
-      if (const std::uint64_t silent = oldest_silent(loop::monotonic_ns() - kHelloGraceNs); silent != 0) {
+      if (const std::uint64_t silent = oldest_silent(simloop::monotonic_ns() - kHelloGraceNs); silent != 0) {
         ++counters_.evicted;
         drop(silent, fmt::format("closed to make room for a new connection: it had said no hello, and {} clients "
                                  "are the limit (max_clients)",
@@ -120,7 +120,7 @@ kj::Promise<void> Server::accept_loop() {
                               options_.max_clients);
         std::size_t refusing = 0;
         for (const auto& [cid, c] : clients_) refusing += !c->refusal.empty();
-        const std::int64_t now = loop::monotonic_ns();
+        const std::int64_t now = simloop::monotonic_ns();
         if (options_.log && now - refused_logged_ns_ > 1'000'000'000) {
           options_.log(4, fmt::format("refusing a client ({}): {} ({} refused so far)", peer, refusal,
                                       counters_.refused));
@@ -164,7 +164,7 @@ void Server::serve_client(kj::Own<kj::AsyncIoStream> stream, std::string peer, s
   c->fd = fd;
   c->peer = std::move(peer);
   c->refusal = std::move(refusal);
-  c->connected_ns = loop::monotonic_ns();
+  c->connected_ns = simloop::monotonic_ns();
   c->stream = kj::mv(stream);
   MessageLimits incoming;
   incoming.max_bytes = options_.max_message_bytes;
@@ -275,7 +275,7 @@ void Server::check_queues() {
       // The refusal is written. The client closes once it has read it; a
       // close from this side first could fail the client's own next write
       // (EPIPE) before it reads the answer, so it gets a second to do so.
-      const std::int64_t now = loop::monotonic_ns();
+      const std::int64_t now = simloop::monotonic_ns();
       if (c->answered_ns == 0) c->answered_ns = now;
       else if (now - c->answered_ns > kRefusalGraceNs) over.emplace_back(id, c->refusal);
     }

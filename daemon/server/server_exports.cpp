@@ -107,7 +107,7 @@ std::string Server::open_export(std::uint64_t id, std::uint64_t& size) {
   Export& e = *it->second;
   if (!e.error.empty()) return e.error;
   e.open = true;
-  e.last_read_ns = loop::monotonic_ns();
+  e.last_read_ns = simloop::monotonic_ns();
   size = e.size;
   if (options_.log) options_.log(6, fmt::format("client {}: export {} ready, {} bytes", e.client, id, e.size));
   return {};
@@ -124,7 +124,7 @@ void Server::read_export(std::uint64_t id, std::uint64_t offset, std::uint32_t c
   if (offset > e.size)
     kj::throwFatalException(
         KJ_EXCEPTION(FAILED, fmt::format("offset {} is past the end of the export ({} bytes)", offset, e.size)));
-  e.last_read_ns = loop::monotonic_ns();
+  e.last_read_ns = simloop::monotonic_ns();
   const std::uint64_t n = std::min<std::uint64_t>({count, options_.max_export_chunk, e.size - offset});
   auto data = capnp::Orphanage::getForMessageContaining(out).newOrphan<capnp::Data>(static_cast<unsigned>(n));
   std::uint64_t got = 0;

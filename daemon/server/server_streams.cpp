@@ -95,7 +95,7 @@ kj::Promise<void> Server::pump_loop() {
 
 void Server::pump() {
   check_queues();
-  if (!exports_.empty()) expire_exports(loop::monotonic_ns());
+  if (!exports_.empty()) expire_exports(simloop::monotonic_ns());
   // Ended streams go first (never from inside their own promise).
   for (auto it = streams_.begin(); it != streams_.end();) {
     if (it->second->dead) {
@@ -107,7 +107,7 @@ void Server::pump() {
   }
   if (streams_.empty() || !reader_) return;
   reader_->sync();
-  const std::int64_t now = loop::monotonic_ns();
+  const std::int64_t now = simloop::monotonic_ns();
   for (auto& [id, s] : streams_) {
     if (s->in_flight || s->dead) continue;
     if (s->needs_snapshot) {
@@ -153,7 +153,7 @@ void Server::send_snapshot(Stream& s) {
   ++s.snapshots;
   s.needs_snapshot = false;
   s.in_flight = true;
-  s.last_send_ns = loop::monotonic_ns();
+  s.last_send_ns = simloop::monotonic_ns();
   counters_.bytes_sent += req.totalSize().wordCount * 8;
   ++counters_.snapshots;
   s.pending = track_send(s.id, req.send());

@@ -2,7 +2,7 @@
 
 #include <fstream>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 std::optional<std::string> compaction_warning(std::string_view value) {
   const auto end = value.find_first_of(" \t\n");
@@ -19,4 +19,4 @@ std::string current_compact_unevictable_allowed() {
   return value;
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

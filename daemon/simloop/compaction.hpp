@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 // A warning for --realtime when locked pages may move (the sysctl reads 1);
 // nothing for 0, or when it cannot be read (a kernel without compaction).
@@ -20,4 +20,4 @@ std::optional<std::string> compaction_warning(std::string_view compact_unevictab
 // This machine's /proc/sys/vm/compact_unevictable_allowed, "" when unreadable.
 std::string current_compact_unevictable_allowed();
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -9,7 +9,7 @@
 #include <bit>
 #include <cstdint>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 class LatencyHistogram {
  public:
@@ -82,4 +82,4 @@ class LatencyHistogram {
   std::atomic<std::uint64_t> count_{0};
 };
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 const char* overrun_cause_name(OverrunCause c) {
   switch (c) {
@@ -97,4 +97,4 @@ std::vector<OverrunRecord> OverrunLog::recent() const {
   return out;
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

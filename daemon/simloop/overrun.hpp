@@ -19,12 +19,12 @@
 
 #include "concurrency/seqlock.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 enum class OverrunCause : int { late_wake = 0, long_step, count };
 const char* overrun_cause_name(OverrunCause c);
 
-// The stages' order in OverrunRecord::stage_ns (the same as loop::Stage).
+// The stages' order in OverrunRecord::stage_ns (the same as simloop::Stage).
 inline constexpr int kOverrunStages = 4;
 
 // One tick's timeline on CLOCK_MONOTONIC, ns.
@@ -118,4 +118,4 @@ class OverrunLog {
   std::atomic<std::uint64_t> written_{0};
 };
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

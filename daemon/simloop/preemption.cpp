@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 namespace {
 
@@ -96,4 +96,4 @@ std::string current_preemption_model() {
   return preemption_model(version, read_all("/sys/kernel/debug/sched/preempt"), read_all("/proc/cmdline"), config);
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -10,7 +10,7 @@
 #include <string>
 #include <string_view>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 // The preemption model from what the kernel tells: `uname -v` (its build:
 // "PREEMPT_RT", "PREEMPT_DYNAMIC", "PREEMPT" or none of them), the current
@@ -30,4 +30,4 @@ std::optional<std::string> preemption_warning(std::string_view model);
 // This machine's model (reads uname, debugfs if mounted and readable, /proc/cmdline, /boot/config-*).
 std::string current_preemption_model();
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

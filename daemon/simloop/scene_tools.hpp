@@ -14,7 +14,7 @@
 #include "simloop/tool_driver.hpp"
 #include "scene/scene.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 // The box of every mesh's vertices (all zero for a scene without vertices).
 inline Box mesh_bounds(const scene::Scene& s) {
@@ -70,4 +70,4 @@ inline ToolDriver tool_driver(const scene::Scene& scene, const SimulationSetting
   return ToolDriver(specs, limits, rate);
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -2,7 +2,7 @@
 
 #include <sched.h>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 template <class T, class V>
@@ -87,4 +87,4 @@ void SimProbe::ticked(std::uint64_t tick, const TickTiming& timing, const sim::T
 
 void SimProbe::skipped(std::int64_t periods) { add(stats_.skipped_periods, periods); }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

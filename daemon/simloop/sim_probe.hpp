@@ -15,7 +15,7 @@
 #include "simloop/overrun.hpp"
 #include "sim/world.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 enum class Stage : int { input = 0, collision, integration, publish, count };
 const char* stage_name(Stage s);
@@ -74,4 +74,4 @@ class SimProbe {
   int cpu_ = -1;            // the CPU the tick woke on
 };
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

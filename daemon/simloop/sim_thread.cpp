@@ -14,7 +14,7 @@
 #include <system_error>
 
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 std::int64_t monotonic_ns() {
   timespec ts;
@@ -162,4 +162,4 @@ TickTiming SimThread::run_tick(std::uint64_t tick, std::int64_t deadline, std::i
   return TickTiming{deadline, woke, input_end, step_end, publish_end, world_.collision_ns()};
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -17,7 +17,7 @@
 #include "sim/tool.hpp"
 #include "sim/world.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 // What the sim thread calls around World::step, on the sim thread.
 class TickStages {
@@ -114,4 +114,4 @@ class SimThread {
   std::thread thread_;
 };
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -4,7 +4,7 @@
 
 #include <fmt/format.h>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 void check_settings(const SimulationSettings& s) {
   auto check = [](const SettingRange& r, double v) {
@@ -19,4 +19,4 @@ void check_settings(const SimulationSettings& s) {
   check(kRingCapacityRange, static_cast<double>(s.ring_capacity));
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <optional>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 struct SettingRange {
   const char* name;
@@ -32,7 +32,7 @@ inline constexpr std::size_t kReplayRingCapacity = 16384;
 // Copied when a build starts.
 struct SimulationSettings {
   std::optional<double> rate_hz;   // --rate / the config; unset: the scene's
-  double tool_margin = 0.1;        // loop::DriverLimits
+  double tool_margin = 0.1;        // simloop::DriverLimits
   double size_step = 1.15;
   double min_scale = 0.25;
   double max_scale = 4.0;
@@ -43,4 +43,4 @@ struct SimulationSettings {
 // naming the setting, its value and its range.
 void check_settings(const SimulationSettings& settings);
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

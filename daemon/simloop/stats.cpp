@@ -1,13 +1,13 @@
 #include "simloop/stats.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 Percentiles percentiles_us(const LatencyHistogram& h) {
   return Percentiles{h.quantile_ns(0.50) / 1e3, h.quantile_ns(0.99) / 1e3, static_cast<double>(h.max_ns()) / 1e3};
 }
 
-StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
-  StatsSnapshot s;
+StatsReading reading(const LoopStats& stats, double rate_hz) {
+  StatsReading s;
   s.rate_hz = rate_hz;
   s.ticks = stats.ticks.load(std::memory_order_acquire);
   s.overruns = stats.overrun_log.total();
@@ -28,4 +28,4 @@ StatsSnapshot snapshot(const LoopStats& stats, double rate_hz) {
   return s;
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

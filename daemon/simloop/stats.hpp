@@ -9,13 +9,13 @@
 
 #include "simloop/sim_thread.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 struct Percentiles {
   double p50 = 0, p99 = 0, max = 0;  // µs
 };
 
-struct StatsSnapshot {
+struct StatsReading {
   double rate_hz = 0;
   std::uint64_t ticks = 0;
   std::uint64_t overruns = 0;
@@ -37,6 +37,6 @@ struct StatsSnapshot {
 Percentiles percentiles_us(const LatencyHistogram& h);
 
 // The sim thread's part (everything but viewers, devices, ff_uploads, bytes_sent).
-StatsSnapshot snapshot(const LoopStats& stats, double rate_hz);
+StatsReading reading(const LoopStats& stats, double rate_hz);
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -2,7 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 namespace {
 nlohmann::json to_json(const Percentiles& p) { return {{"p50", p.p50}, {"p99", p.p99}, {"max", p.max}}; }
@@ -30,7 +30,7 @@ nlohmann::json to_json(const OverrunRecord& r) {
 }
 }  // namespace
 
-nlohmann::json stats_json(const StatsSnapshot& s) {
+nlohmann::json stats_json(const StatsReading& s) {
   nlohmann::json stages = nlohmann::json::object();
   for (int i = 0; i < static_cast<int>(Stage::count); ++i) stages[stage_name(static_cast<Stage>(i))] = to_json(s.stage_us[i]);
   nlohmann::json causes = nlohmann::json::object();
@@ -63,4 +63,4 @@ nlohmann::json stats_json(const StatsSnapshot& s) {
   };
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -16,8 +16,8 @@
 
 #include "simloop/stats.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
-nlohmann::json stats_json(const StatsSnapshot& s);
+nlohmann::json stats_json(const StatsReading& s);
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -10,7 +10,7 @@
 
 #include "sim/state_bytes.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
@@ -33,8 +33,8 @@ ToolDriver::ToolDriver(std::vector<ToolSpec> tools, const DriverLimits& limits, 
     throw std::invalid_argument("tool driver: bounds must be finite");
   for (int a = 0; a < 3; ++a)
     if (limits.bounds.lo[a] > limits.bounds.hi[a]) throw std::invalid_argument("tool driver: bounds lo > hi");
-  if (tools.size() > kMaxTools)
-    throw std::invalid_argument("tool driver: at most " + std::to_string(kMaxTools) + " tools");
+  if (tools.size() > sim::kMaxTools)
+    throw std::invalid_argument("tool driver: at most " + std::to_string(sim::kMaxTools) + " tools");
   state_.reserve(tools.size());
   for (std::size_t i = 0; i < tools.size(); ++i) {
     const ToolSpec& s = tools[i];
@@ -173,4 +173,4 @@ void ToolDriver::check_state(const sim::StateView& view) const {
   }
 }
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -12,13 +12,14 @@
 #include <span>
 #include <vector>
 
+#include "sim/limits.hpp"
 #include "sim/tool.hpp"
 
 namespace sculpt::sim {
 class StateView;
 }
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 
 using Vec3d = std::array<double, 3>;
 
@@ -64,12 +65,11 @@ class ToolDriver {
   void update(std::span<const DriveInput> inputs, std::span<sim::Tool> out);
 
   // Any control type with DriveInput's fields (input::ToolControl), converted
-  // in place without allocating (up to kMaxTools per call).
-  static constexpr std::size_t kMaxTools = 16;
+  // in place without allocating (up to sim::kMaxTools per call).
   template <class Control>
   void update_from(std::span<const Control> controls, std::span<sim::Tool> out) {
-    std::array<DriveInput, kMaxTools> in{};
-    const std::size_t n = controls.size() < kMaxTools ? controls.size() : kMaxTools;
+    std::array<DriveInput, sim::kMaxTools> in{};
+    const std::size_t n = controls.size() < sim::kMaxTools ? controls.size() : sim::kMaxTools;
     for (std::size_t i = 0; i < n; ++i) {
       const Control& c = controls[i];
       in[i] = DriveInput{{c.stick[0], c.stick[1], c.stick[2]}, c.grab, c.shape_toggles, c.size_steps, c.connected};
@@ -111,4 +111,4 @@ class ToolDriver {
 // grown further to hold every tool's start position.
 Box tool_bounds(const Box& meshes, std::span<const ToolSpec> tools, double margin);
 
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

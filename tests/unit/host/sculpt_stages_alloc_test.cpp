@@ -25,7 +25,7 @@ namespace {
 using namespace std::chrono_literals;
 
 // Marks the sim thread, then forwards to the real stages.
-struct Marking : loop::TickStages {
+struct Marking : simloop::TickStages {
   explicit Marking(SculptStages& s) : stages(s) {}
   SculptStages& stages;
   void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
@@ -39,12 +39,12 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   sim::World<float> world(sim::SimSettings{}, 1);
   world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
   haptics::FeedbackBoard board(1);
-  loop::DriverLimits limits;
-  limits.bounds = loop::Box{{-1, -1, -1}, {1, 1, 1}};
-  loop::ToolSpec spec;
+  simloop::DriverLimits limits;
+  limits.bounds = simloop::Box{{-1, -1, -1}, {1, 1, 1}};
+  simloop::ToolSpec spec;
   spec.position = {0, 0.09, 0};
   spec.speed = 0.5;
-  SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  SculptStages stages(simloop::ToolDriver({spec}, limits, 1000.0), board, 256);
   server::PublishedState published(world, 1000.0);
   stages.set_published(&published);
   Marking marking(stages);
@@ -72,9 +72,9 @@ TEST(Pipeline, TheSimThreadAllocatesNothingWhileSculpting) {
   };
   ASSERT_TRUE(stages.ring().try_push(full_down()));
 
-  loop::SimThreadOptions o;
+  simloop::SimThreadOptions o;
   o.max_ticks = 600;
-  loop::SimThread thread(world, marking, 1, o);
+  simloop::SimThread thread(world, marking, 1, o);
   support::reset_counted_allocations();
   thread.start();
   // Frames keep arriving while it runs.
@@ -103,11 +103,11 @@ TEST(Pipeline, TheBoardFeelsARestingToolSteadily) {
   sim::World<float> world(sim::SimSettings{}, 1);
   world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
   haptics::FeedbackBoard board(1);
-  loop::DriverLimits limits;
-  limits.bounds = loop::Box{{-1, -1, -1}, {1, 1, 1}};
-  loop::ToolSpec spec;
+  simloop::DriverLimits limits;
+  limits.bounds = simloop::Box{{-1, -1, -1}, {1, 1, 1}};
+  simloop::ToolSpec spec;
   spec.position = {0, 0.05 + 0.02 - 0.0003, 0};  // 0.3 mm into the rest surface
-  SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  SculptStages stages(simloop::ToolDriver({spec}, limits, 1000.0), board, 256);
   input::DeviceBinding b;
   input::AxisBinding y;
   y.code = ABS_Y;

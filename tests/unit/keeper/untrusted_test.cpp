@@ -277,7 +277,7 @@ std::string cone_obj() {
 
 TEST(Untrusted, AnOverflowSpringOutOfRangeIsRefusedAndTheSnapshotBeforeIsUsed) {
   const fs::path dir = testing::fresh_dir("overflow");
-  auto bundle = std::make_shared<SceneBundle>(read_bundle("builtin:default", loop::SimulationSettings{}));
+  auto bundle = std::make_shared<SceneBundle>(read_bundle("builtin:default", simloop::SimulationSettings{}));
   bundle->file = "cone.toml";
   bundle->text += "\n[[mesh]]\nname = \"cone\"\nfile = \"cone.obj\"\nmaterial = \"rubber\"\nposition = [0.0, 0.3, 0.0]\n";
   bundle->meshes.push_back({"cone.obj", cone_obj()});

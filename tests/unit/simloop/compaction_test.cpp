@@ -3,7 +3,7 @@
 
 #include "simloop/compaction.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 TEST(Compaction, WarnsOnlyWhenLockedPagesMayMove) {
@@ -22,4 +22,4 @@ TEST(Compaction, ThisMachinesSettingIsReadableOrAbsent) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -4,7 +4,7 @@
 
 #include "simloop/histogram.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 TEST(LatencyHistogram, BucketsTileTheLineWithoutGaps) {
@@ -49,4 +49,4 @@ TEST(LatencyHistogram, AnOutlierShowsInTheMaxNotTheMedian) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -10,7 +10,7 @@
 
 #include "simloop/overrun.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 constexpr std::int64_t kUs = 1000;
@@ -200,4 +200,4 @@ TEST(ThreadCounters, ArithmeticNeverGoesNegative) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -10,7 +10,7 @@
 #include "simloop/stats_json.hpp"
 #include "server/encode.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
@@ -36,7 +36,7 @@ TEST(OverrunStats, TravelThroughTheProtocolToTheSameJson) {
   d.stats.sim_thread = {.work_cpu_ns = 0, .work_nvcsw = 2, .minflt = 12, .majflt = 0, .nivcsw = 4, .work_nvcsw_no_fault = 1};
   capnp::MallocMessageBuilder m;
   server::fill_stats(m.initRoot<proto::Stats>(), d);
-  const StatsSnapshot back = server::stats_from(m.getRoot<proto::Stats>().asReader());
+  const StatsReading back = server::stats_from(m.getRoot<proto::Stats>().asReader());
   const nlohmann::json j = stats_json(back);
   EXPECT_EQ(j.dump(), stats_json(d.stats).dump());
   ASSERT_EQ(j["recent_overruns"].size(), 3u);
@@ -58,11 +58,11 @@ TEST(OverrunStats, AnOlderDaemonsStatsReadAsNoAttribution) {
   capnp::MallocMessageBuilder m;
   auto st = m.initRoot<proto::Stats>();
   st.setOverruns(5);
-  const StatsSnapshot back = server::stats_from(st.asReader());
+  const StatsReading back = server::stats_from(st.asReader());
   EXPECT_EQ(back.overruns, 5u);
   EXPECT_EQ(back.overrun_causes[0] + back.overrun_causes[1], 0u);
   EXPECT_TRUE(back.recent_overruns.empty());
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -4,7 +4,7 @@
 
 #include "simloop/preemption.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 TEST(Preemption, ReadsTheBuildThenTheDynamicModeThenTheBootParameter) {
@@ -49,4 +49,4 @@ TEST(Preemption, ThisMachinesModelIsOneOfTheKnownOnes) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

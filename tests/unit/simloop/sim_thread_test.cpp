@@ -15,7 +15,7 @@
 #include "sim/shapes.hpp"
 #include "support/allocation_counter.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 using namespace std::chrono_literals;
@@ -77,7 +77,7 @@ TEST(SimThread, RunsTheStagesOncePerTickAndStopsAfterMaxTicks) {
   EXPECT_EQ(world.tick(), 300u);
   EXPECT_FALSE(stages.out_of_order.load());
   EXPECT_GT(stages.contacts.load(), 0u) << "the tool never reached the ball";
-  const StatsSnapshot s = snapshot(thread.stats(), o.rate_hz);
+  const StatsReading s = reading(thread.stats(), o.rate_hz);
   EXPECT_EQ(s.ticks, 300u);
   EXPECT_EQ(thread.stats().jitter.count(), 300u);
   EXPECT_EQ(s.vertices_total, world.body(0).n);
@@ -136,7 +136,7 @@ TEST(SimThread, ATickThatRunsPastTheNextDeadlineIsAnOverrun) {
   EXPECT_GE(thread.stats().skipped_periods.load(), 1u);  // no burst of catch-up ticks
   EXPECT_EQ(thread.ticks(), o.max_ticks);
   // Attributed: tick 10's input stage slept (off the CPU) through 20 periods.
-  const StatsSnapshot s = snapshot(thread.stats(), o.rate_hz);
+  const StatsReading s = reading(thread.stats(), o.rate_hz);
   EXPECT_EQ(s.overrun_causes[0] + s.overrun_causes[1], s.overruns);
   EXPECT_GE(s.overrun_causes[static_cast<int>(OverrunCause::long_step)], 1u);
   const OverrunRecord* slow = nullptr;
@@ -223,7 +223,7 @@ TEST(SimThread, BadRatesAreRejected) {
 }
 
 TEST(StatsJson, CarriesExactlyTheListedKeys) {
-  StatsSnapshot s;
+  StatsReading s;
   s.rate_hz = 1000;
   s.ticks = 12;
   s.devices = 2;
@@ -251,4 +251,4 @@ TEST(StatsJson, CarriesExactlyTheListedKeys) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop

@@ -5,7 +5,7 @@
 
 #include "simloop/tool_driver.hpp"
 
-namespace sculpt::loop {
+namespace sculpt::simloop {
 namespace {
 
 constexpr double kRate = 1000.0;
@@ -211,4 +211,4 @@ TEST(ToolDriver, ItsStateComesBackExactly) {
 }
 
 }  // namespace
-}  // namespace sculpt::loop
+}  // namespace sculpt::simloop
