@@ -1,5 +1,5 @@
 // The strokes of a sculpt, for undo and redo. A stroke is one edit of one
-// mesh (sim/edits.hpp: from a tool's onset near it to its release and rest)
+// mesh (sim/strokes.hpp: from a tool's onset near it to its release and rest)
 // with the image of every block it changed. Undo and redo are the same
 // swap (the world takes the images, the images take what the world had),
 // so a stroke's images are its "before" while it is done and its "after"
@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 
 namespace sculpt::daemon {
 

@@ -17,7 +17,7 @@
 #include "keeper/history.hpp"
 #include "keeper/journal.hpp"
 #include "keeper/scene_bundle.hpp"
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/world.hpp"
 
 namespace sculpt::daemon {

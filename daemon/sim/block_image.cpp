@@ -28,7 +28,7 @@ void for_each_piece(B& b, std::uint32_t overflow_slots, std::uint32_t blk, F&& p
   auto rows = [&](auto* p, std::size_t per_vertex) {
     piece(p + per_vertex * b0, per_vertex * count * sizeof(*p), per_vertex * kBlock * sizeof(*p));
   };
-  one(b.block[blk]);  // first: the recorder patches it in place (edit_capture.cpp)
+  one(b.block[blk]);  // first: the recorder patches it in place (stroke_recorder.cpp)
   one(b.snapshot_grid[blk]);
   for (auto* a : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz}) rows(a->data(), 1);
   if (b.plastic)

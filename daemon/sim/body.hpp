@@ -18,7 +18,7 @@
 namespace sculpt::sim {
 
 template <class S>
-class EditRecorder;  // sim/edit_capture.hpp
+class EditRecorder;  // sim/stroke_recorder.hpp
 
 // The double buffer of packed neighbour records (float only, 64 bytes per
 // vertex): by_size gives it to clay bodies up to 65 536 vertices; elastic
@@ -188,9 +188,9 @@ struct BodyBlocks {
   std::uint32_t awake_blocks = 0;         // blocks awake now
   std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
   std::vector<ToolContact<S>> tools;      // one per tool slot of the world
-  // Edits (sim/edit_capture.hpp): World's recorder of this body's edits, and
+  // Edits (sim/stroke_recorder.hpp): World's recorder of this body's edits, and
   // per block whether it may change without a capture first; null while no
-  // edit records (then will_change, sim/edit_hook.hpp, is one test).
+  // edit records (then will_change, sim/stroke_hook.hpp, is one test).
   EditRecorder<S>* edits = nullptr;
   const std::uint8_t* edit_done = nullptr;
 };

@@ -18,8 +18,8 @@
 
 #include "sim/body.hpp"
 #include "sim/contact.hpp"
-#include "sim/edit_capture.hpp"
-#include "sim/edits.hpp"
+#include "sim/stroke_recorder.hpp"
+#include "sim/strokes.hpp"
 #include "sim/grab.hpp"
 #include "sim/stepper.hpp"
 #include "sim/tool_track.hpp"
@@ -120,7 +120,7 @@ class World {
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
 
-  // Edits (sim/edits.hpp, docs/simulation.md): with a sink, the world tells
+  // Edits (sim/strokes.hpp, docs/simulation.md): with a sink, the world tells
   // it each body's edits and hands it the image of every block an open edit
   // is about to change. nullptr (the default): nothing is recorded, and it
   // costs a branch. Either way the same scene and inputs give the same bits.

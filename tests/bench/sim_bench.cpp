@@ -10,7 +10,7 @@
 
 #include "sim/baseline.hpp"
 #include "sim/body.hpp"
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"

@@ -2,7 +2,7 @@
 // binary is counted.
 #include <gtest/gtest.h>
 
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernels.hpp"
 #include "sim_test_util.hpp"
 #include "support/allocation_counter.hpp"

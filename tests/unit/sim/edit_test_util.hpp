@@ -11,7 +11,7 @@
 #include <span>
 #include <vector>
 
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernels.hpp"
 #include "sim/world.hpp"
 

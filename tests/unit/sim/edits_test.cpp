@@ -1,4 +1,4 @@
-// Edits and block images (sim/edits.hpp, World::swap_block_image): an edit
+// Edits and block images (sim/strokes.hpp, World::swap_block_image): an edit
 // captures every block it changes before the change (checked against
 // World::state() taken apart by block, not against the images), swapping
 // the images back gives the body as it was when the edit opened, on every
@@ -17,7 +17,7 @@
 
 #include "edit_test_util.hpp"
 #include "sim/clay.hpp"
-#include "sim/edit_capture.hpp"
+#include "sim/stroke_recorder.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/shapes.hpp"
 #include "sim/stability.hpp"

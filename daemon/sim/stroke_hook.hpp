@@ -1,4 +1,4 @@
-// The hook every writer of a block's state calls first (edit_capture.hpp):
+// The hook every writer of a block's state calls first (stroke_recorder.hpp):
 // while an edit is recording, the first change of a block in it captures the
 // block's image; otherwise it costs one test of a null pointer.
 #pragma once

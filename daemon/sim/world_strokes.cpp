@@ -1,5 +1,5 @@
 // World's edits API (world.hpp): the sink, closing edits, and block images
-// read and swapped. The recording itself is EditRecorder's (edit_capture.hpp).
+// read and swapped. The recording itself is EditRecorder's (stroke_recorder.hpp).
 #include <string>
 
 #include "sim/block_image.hpp"

@@ -1,11 +1,11 @@
-// EditRecorder (edit_capture.hpp): an edit's life on one body, tick by tick.
+// EditRecorder (stroke_recorder.hpp): an edit's life on one body, tick by tick.
 //
 //   closed ──tool near──▶ touching ──no tool near──▶ released ──at rest──▶ closed
 //                                                     │
 //                                       tool near ────┘ close (last tick: the one before), open again
 //
 // and close_edits() closes from any phase.
-#include "sim/edit_capture.hpp"
+#include "sim/stroke_recorder.hpp"
 
 #include <algorithm>
 #include <cstring>

@@ -1,9 +1,9 @@
-// The recording side of edits (edits.hpp), internal to the sim: per body,
+// The recording side of edits (strokes.hpp), internal to the sim: per body,
 // whether an edit is open, which blocks it has captured, and the blocks a
 // swap changed that the viewers have not been told of yet.
 //
 // Every writer of a block's state (block_image.hpp) calls will_change(b, blk)
-// (edit_hook.hpp) before it writes; the first call for a block in the open
+// (stroke_hook.hpp) before it writes; the first call for a block in the open
 // edit hands its image to the sink.
 //
 // The broadphase is a writer too (it refits, wakes and marks the blocks it
@@ -21,8 +21,8 @@
 
 #include "sim/block_image.hpp"
 #include "sim/body.hpp"
-#include "sim/edit_hook.hpp"
-#include "sim/edits.hpp"
+#include "sim/stroke_hook.hpp"
+#include "sim/strokes.hpp"
 
 namespace sculpt::sim {
 
