@@ -49,7 +49,7 @@ std::size_t SculptStages::take_messages(std::uint64_t tick) {
 }
 
 // Whether the images fit this world, checked before any is written (what
-// World::swap_block_image would throw for, so that it never does here).
+// World::exchange_block_image would throw for, so that it never does here).
 bool SculptStages::fits(const EditImages& e) const {
   if (e.body >= world_->body_count()) return false;
   const std::size_t size = world_->block_image_bytes(e.body);
@@ -71,7 +71,7 @@ void SculptStages::write_edits(std::uint64_t tick) {
     if (written) {
       const std::size_t size = world_->block_image_bytes(e.body);
       for (std::size_t i = 0; i < e.blocks.size(); ++i)
-        world_->swap_block_image(e.body, e.blocks[i], e.images.subspan(i * size, size));
+        world_->exchange_block_image(e.body, e.blocks[i], e.images.subspan(i * size, size));
     }
     JournalEntry j;
     j.kind = JournalEntry::Kind::edit;

@@ -45,7 +45,7 @@ void History::captured(std::uint32_t body, std::uint32_t block, std::uint32_t ve
   s.vertices += vertices;
 }
 
-void History::closed(std::uint32_t body, const sim::EditSummary& edit) {
+void History::closed(std::uint32_t body, const sim::StrokeSummary& edit) {
   Open* o = open_of(body);
   if (!o) return;
   Stroke s = std::move(o->stroke);

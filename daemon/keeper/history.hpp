@@ -28,7 +28,7 @@ struct Stroke {
   std::uint32_t scene = 0;   // the keeper's scene number
   std::uint32_t body = 0;
   std::string mesh;          // the body's name in its scene
-  sim::EditSummary edit;     // global ticks
+  sim::StrokeSummary edit;     // global ticks
   std::uint64_t vertices = 0;
   bool undone = false;
   std::vector<std::uint32_t> blocks;
@@ -51,7 +51,7 @@ class History {
   // Recording, as the replica's world reports its edits.
   void opened(std::uint32_t scene, std::uint32_t body, std::string_view mesh, std::uint64_t tick);
   void captured(std::uint32_t body, std::uint32_t block, std::uint32_t vertices, std::span<const std::byte> image);
-  void closed(std::uint32_t body, const sim::EditSummary& edit);
+  void closed(std::uint32_t body, const sim::StrokeSummary& edit);
 
   // The strokes `count` undos (newest done first) or redos (oldest undone
   // first) would swap, or why none can. `scene`: the one running now.

@@ -9,7 +9,7 @@
 namespace sculpt::daemon {
 
 // The world's edits, in global ticks, to the history.
-class Replica::Sink final : public sim::EditSink {
+class Replica::Sink final : public sim::StrokeSink {
  public:
   Sink(Replica& r) : r_(r) {}
   void opened(std::uint32_t body, std::uint64_t tick) override {
@@ -19,8 +19,8 @@ class Replica::Sink final : public sim::EditSink {
     const sim::Body<float>& b = r_.world_->body(body);
     r_.history_.captured(body, block, b.end_of(block) - b.begin_of(block), image);
   }
-  void closed(std::uint32_t body, const sim::EditSummary& edit) override {
-    sim::EditSummary g = edit;
+  void closed(std::uint32_t body, const sim::StrokeSummary& edit) override {
+    sim::StrokeSummary g = edit;
     g.first_tick = global(edit.first_tick);
     g.release_tick = edit.release_tick ? global(edit.release_tick) : 0;
     g.last_tick = global(edit.last_tick);
@@ -47,10 +47,10 @@ Replica::Replica(std::shared_ptr<const SceneBundle> bundle, const scene::Scene& 
       sink_(std::make_unique<Sink>(*this)) {
   for (const auto& m : scene.meshes) mesh_names_.push_back(m.name);
   for (auto& t : tools_) t.active = false;
-  world_->set_edit_sink(sink_.get());
+  world_->set_stroke_sink(sink_.get());
 }
 
-Replica::~Replica() { world_->set_edit_sink(nullptr); }
+Replica::~Replica() { world_->set_stroke_sink(nullptr); }
 
 // What the sim thread does in a tick after its inputs (SculptStages::input, SimThread::run_tick).
 void Replica::step() {
@@ -73,7 +73,7 @@ std::string Replica::apply(const JournalEntry& e) {
     case JournalEntry::Kind::reached: return {};
   }
   if (e.refused) return {};
-  world_->close_edits();
+  world_->close_strokes();
   if (e.edit == 0) return {};  // the keeper's mark: close the open strokes here
   Stroke* s = history_.find(e.edit);
   if (!s) return fmt::format("stroke {} is no longer in the history: its undo or redo at tick {} could not be replayed",
@@ -85,7 +85,7 @@ std::string Replica::apply(const JournalEntry& e) {
     return fmt::format("stroke {} is of scene {}, not this one ({}): its undo or redo at tick {} was not replayed",
                        s->number, s->scene, scene_number_, e.tick);
   for (std::size_t i = 0; i < s->blocks.size(); ++i)
-    world_->swap_block_image(s->body, s->blocks[i],
+    world_->exchange_block_image(s->body, s->blocks[i],
                              std::span<std::byte>(s->images).subspan(i * s->image_bytes, s->image_bytes));
   history_.swapped(*s);
   return {};

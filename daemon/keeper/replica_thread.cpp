@@ -150,7 +150,7 @@ void Keeper::switch_scene(std::uint32_t number) {
     incoming_.erase(it);
   }
   try {
-    if (replica_) replica_->world().close_edits();
+    if (replica_) replica_->world().close_strokes();
     replica_ = std::make_unique<Replica>(in.bundle, *in.scene, number, in.first_tick, history_);
     std::lock_guard lock(mutex_);
     rate_hz_ = replica_->rate();

@@ -107,7 +107,7 @@ void write_block_image(const Body<S>& b, const BlockImageLayout& layout, std::ui
 }
 
 template <class S>
-void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image) {
+void exchange_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image) {
   const BlockState<S> before = b.block[blk];
   for_each_piece<S>(b, layout.overflow_slots, blk, [&](auto* p, std::size_t bytes, std::size_t slot) {
     swap_bytes(reinterpret_cast<std::byte*>(p), image, bytes);
@@ -200,7 +200,7 @@ template BlockImageLayout block_image_layout(const Body<float>&);
 template BlockImageLayout block_image_layout(const Body<double>&);
 template void write_block_image(const Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
 template void write_block_image(const Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
-template void swap_block_state(Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
-template void swap_block_state(Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
+template void exchange_block_state(Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
+template void exchange_block_state(Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
 
 }  // namespace sculpt::sim

@@ -45,7 +45,7 @@ void write_block_image(const Body<S>& b, const BlockImageLayout& layout, std::ui
 // of awake blocks and the body's box (bit for bit what update_box gives).
 // Allocates nothing.
 template <class S>
-void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image);
+void exchange_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image);
 
 // What an image from outside (a stroke read back from a store) must be
 // before it is swapped in, value by value as World::restore_state holds a

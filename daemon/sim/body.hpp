@@ -18,7 +18,7 @@
 namespace sculpt::sim {
 
 template <class S>
-class EditRecorder;  // sim/stroke_recorder.hpp
+class StrokeRecorder;  // sim/stroke_recorder.hpp
 
 // The double buffer of packed neighbour records (float only, 64 bytes per
 // vertex): by_size gives it to clay bodies up to 65 536 vertices; elastic
@@ -188,11 +188,11 @@ struct BodyBlocks {
   std::uint32_t awake_blocks = 0;         // blocks awake now
   std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
   std::vector<ToolContact<S>> tools;      // one per tool slot of the world
-  // Edits (sim/stroke_recorder.hpp): World's recorder of this body's edits, and
+  // Strokes (sim/stroke_recorder.hpp): World's recorder of this body's strokes, and
   // per block whether it may change without a capture first; null while no
-  // edit records (then will_change, sim/stroke_hook.hpp, is one test).
-  EditRecorder<S>* edits = nullptr;
-  const std::uint8_t* edit_done = nullptr;
+  // stroke records (then will_change, sim/stroke_hook.hpp, is one test).
+  StrokeRecorder<S>* strokes = nullptr;
+  const std::uint8_t* stroke_done = nullptr;
 };
 
 // The blow-up guard: the last good state and the energy bookkeeping.

@@ -362,8 +362,8 @@ void World<S>::restore_state(std::span<const std::byte> bytes) {
   check.note_to(&view);
   read_state(check);
   check_state(view);  // the values, before any of them is written
-  close_edits();  // their images are of the state being replaced
-  for (auto& e : edits_) e->forget_swaps();
+  close_strokes();  // their images are of the state being replaced
+  for (auto& e : recorders_) e->forget_exchanges();
   StateReader r(bytes, /*dry=*/false);
   read_state(r);
   for (Body<S>& b : bodies_) {

@@ -16,7 +16,7 @@ std::uint32_t stroke(History& h, std::uint32_t body, std::uint64_t tick, int blo
   std::vector<std::byte> image(kImage, std::byte{7});
   for (int b = 0; b < blocks; ++b) h.captured(body, static_cast<std::uint32_t>(b), 16, image);
   const std::uint32_t number = h.next_number();
-  h.closed(body, sim::EditSummary{tick, tick + 10, tick + 20, 1});
+  h.closed(body, sim::StrokeSummary{tick, tick + 10, tick + 20, 1});
   return number;
 }
 
@@ -47,7 +47,7 @@ TEST(History, NothingToUndoSaysSo) {
 TEST(History, AStrokeThatChangesNothingIsNotKept) {
   History h(1 << 20);
   h.opened(1, 0, "ball", 5);
-  h.closed(0, sim::EditSummary{5, 6, 7, 1});
+  h.closed(0, sim::StrokeSummary{5, 6, 7, 1});
   EXPECT_TRUE(h.strokes().empty());
 }
 

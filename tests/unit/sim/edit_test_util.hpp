@@ -19,14 +19,14 @@ namespace sculpt::sim::test {
 
 struct RecordedEdit {
   std::uint32_t body = 0;
-  EditSummary summary;
+  StrokeSummary summary;
   bool closed = false;
   std::vector<std::uint32_t> blocks{};           // in capture order
   std::vector<std::vector<std::byte>> images{};  // beside them
 };
 
 // Keeps every edit; flags what breaks the sink's contract.
-class RecordingSink : public EditSink {
+class RecordingSink : public StrokeSink {
  public:
   explicit RecordingSink(std::size_t bodies) : open_(bodies, -1) {}
   void opened(std::uint32_t body, std::uint64_t tick) override {
@@ -41,7 +41,7 @@ class RecordingSink : public EditSink {
     e.blocks.push_back(block);
     e.images.emplace_back(image.begin(), image.end());
   }
-  void closed(std::uint32_t body, const EditSummary& s) override {
+  void closed(std::uint32_t body, const StrokeSummary& s) override {
     ASSERT_NE(open_.at(body), -1) << "closed with no edit open";
     RecordedEdit& e = edits[static_cast<std::size_t>(open_[body])];
     EXPECT_EQ(s.first_tick, e.summary.first_tick);
