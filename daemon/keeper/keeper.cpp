@@ -44,7 +44,7 @@ void Keeper::scene_started(std::shared_ptr<const SceneBundle> bundle, std::share
   // entry marks where the old scene's input ends.
   for (int waited_ms = 0; !tap_.record(e); ++waited_ms) {
     if (waited_ms == 5000) {
-      log::err("autosave: the journal stayed full for 5 s; the sculpt of the new scene is not saved");
+      log::err("keeper: the journal stayed full for 5 s; the sculpt of the new scene is not saved");
       return;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -55,10 +55,10 @@ void Keeper::start_anew() {
   const store::Kept kind = unrecovered_ ? store::Kept::unrecovered : store::Kept::previous;
   const std::filesystem::path kept = store_.set_aside(kind);
   if (!kept.empty() && kind == store::Kept::previous)
-    log::notice("autosave: the sculpt saved before is kept as {} (sculptd --open {} goes back to it)", kept.string(),
+    log::notice("keeper: the sculpt saved before is kept as {} (sculptd --open {} goes back to it)", kept.string(),
                 kept.string());
   else if (!kept.empty())
-    log::warning("autosave: the store that could not be recovered is kept as {}, as it was", kept.string());
+    log::warning("keeper: the store that could not be recovered is kept as {}, as it was", kept.string());
   unrecovered_ = false;
   reset_history();
   std::lock_guard lock(mutex_);

@@ -1,6 +1,6 @@
-// The keeper: the sculpt's autosave, its history and its recovery, on three
-// threads of its own beside the real-time loop. The sim thread tells it what
-// it did (keeper/journal.hpp); the keeper's journal thread
+// The keeper keeps the sculpt safe: its journal and snapshots in the store,
+// its history and its recovery, on three threads of its own beside the sim
+// loop. The sim thread tells it what it did (keeper/journal.hpp); the keeper's journal thread
 //   - takes that from the tap every 10 ms and seals it into a batch, with a
 //     mark of the last tick finished, every commit_every (50 ms), for the
 //     store thread, and an export after what it sealed; it never waits on

@@ -156,7 +156,7 @@ void Keeper::switch_scene(std::uint32_t number) {
     rate_hz_ = replica_->rate();
   } catch (const std::exception& e) {
     replica_.reset();
-    log::err("autosave: cannot build the replica of the new scene ({}); the sculpt is not saved until the next scene",
+    log::err("keeper: cannot build the replica of the new scene ({}); the sculpt is not saved until the next scene",
              e.what());
     return;
   }

@@ -154,11 +154,11 @@ void Keeper::snapshot(const char* why) {
       if (b.key == bundle_key_) check_bundle_size(b.bytes.size());
     job->prepared = store_.prepare_snapshot(replica_->next_tick(), state, meta.dump(), blobs, refs);
   } catch (const std::bad_alloc&) {
-    log::warning("autosave: no memory to compress the snapshot ({}); the next one is tried in {} s", why,
+    log::warning("keeper: no memory to compress the snapshot ({}); the next one is tried in {} s", why,
                  std::chrono::duration_cast<std::chrono::seconds>(settings_.snapshot_every).count());
     job.reset();
   } catch (const std::exception& e) {  // more than a store holds: no later snapshot fits either
-    log::warning("autosave: snapshot ({}): {}; the sculpt goes on in memory", why, e.what());
+    log::warning("keeper: snapshot ({}): {}; the sculpt goes on in memory", why, e.what());
     job.reset();
   }
   if (job) {
@@ -185,7 +185,7 @@ void Keeper::write_snapshot(Job& job) {
     if (st.ok) written_snapshots_.emplace_back(job.sequence, std::move(p.refs));
   }
   if (st.ok)
-    log::debug("autosave: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", job.why, p.tick,
+    log::debug("keeper: snapshot ({}) at tick {}: {} bytes of state, {} new blobs, {:.1f} ms", job.why, p.tick,
                job.state_bytes, p.blobs.size(), ms);
   store_written(st, "snapshot");
 }

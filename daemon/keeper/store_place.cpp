@@ -15,7 +15,7 @@ namespace {
 std::filesystem::path make_memory_dir() {
   const char* shm = "/dev/shm";
   std::string pattern = std::string(std::filesystem::is_directory(shm) ? shm : "/tmp") + "/sculptd-store-XXXXXX";
-  if (!mkdtemp(pattern.data())) throw std::runtime_error("autosave: cannot make a directory in memory for the store");
+  if (!mkdtemp(pattern.data())) throw std::runtime_error("keeper: cannot make a directory in memory for the store");
   return pattern;
 }
 
@@ -29,7 +29,7 @@ OpenedKeeper open_keeper(KeeperSettings settings, JournalTap& tap) {
     throw;
   } catch (const store::StoreError& e) {
     out.memory_dir = make_memory_dir();
-    log::warning("autosave: {}; the sculpt is kept in memory only ({}): undo works, a crash loses it", e.what(),
+    log::warning("keeper: {}; the sculpt is kept in memory only ({}): undo works, a crash loses it", e.what(),
                  out.memory_dir.string());
     settings.dir = out.memory_dir;
     out.keeper = std::make_unique<Keeper>(settings, tap);
@@ -57,7 +57,7 @@ void log_recovery(const Recovered& r, const std::string& configured_scene, bool 
 }
 
 void log_keeper_stats(const KeeperStats& k) {
-  log::info("autosave: {} journal entries ({} bytes) in {} commits, the longest gap between two {:.0f} ms; {} "
+  log::info("keeper: {} journal entries ({} bytes) in {} commits, the longest gap between two {:.0f} ms; {} "
             "snapshots, the last of {} bytes of state ({} stored) in {:.0f} ms",
             k.entries, k.journal_bytes, k.commits, k.longest_commit_gap_ms, k.snapshots, k.snapshot_state_bytes,
             k.snapshot_stored_bytes, k.snapshot_ms);

@@ -61,7 +61,7 @@ void Keeper::run_store() {
   } else {
     saved_.ended = true;
     marker_.write(saved_);
-    log::warning("autosave: the daemon ends with {} journal records of {:.1f} s of sculpt not written to {} ({})",
+    log::warning("keeper: the daemon ends with {} journal records of {:.1f} s of sculpt not written to {} ({})",
                  h.pending_records, seconds_of(saved_.ran - saved_.committed), store_.database().string(),
                  h.last_error.empty() ? h.relocation : h.last_error);
   }
@@ -113,12 +113,12 @@ void Keeper::store_written(const store::Status& st, const char* what) {
   marker_.write(saved_);
   std::lock_guard lock(mutex_);
   if (!st.ok && !st.deferred && st.error != last_store_error_)
-    log::warning("autosave: {} ({}); the sculpt goes on in memory and the store is retried", st.error, what);
-  if (st.ok && !last_store_error_.empty() && health_.degraded) log::notice("autosave: the store works again");
+    log::warning("keeper: {} ({}); the sculpt goes on in memory and the store is retried", st.error, what);
+  if (st.ok && !last_store_error_.empty() && health_.degraded) log::notice("keeper: the store works again");
   if (!st.deferred) last_store_error_ = st.ok ? std::string() : st.error;
   if (health.relocations > relocations_seen_) {
     relocations_seen_ = health.relocations;
-    log::warning("autosave: {}", health.relocation);
+    log::warning("keeper: {}", health.relocation);
     snapshot_soon_ = true;  // a fresh one in the files as they are now
   }
   health_ = health;

@@ -34,8 +34,9 @@ class ConfigError : public std::runtime_error {
 InputSpec parse_input_spec(std::string_view text, std::string_view what);
 std::string to_string(const InputSpec& spec);
 
-// [store]: autosave, history and recovery (keeper/keeper.hpp, docs/store.md).
-struct StoreConfig {
+// [keeper]: the keeper (keeper/keeper.hpp, docs/store.md): the store, the
+// history and recovery. Its old name [store] is still read, with a warning.
+struct KeeperConfig {
   bool enabled = true;
   // "": $STATE_DIRECTORY (systemd's StateDirectory=), else
   // $XDG_STATE_HOME/sculptd, else ~/.local/state/sculptd.
@@ -74,8 +75,8 @@ struct DaemonConfig {
   double max_scale = 4.0;
   // [haptics]
   haptics::HapticsSettings haptics;
-  // [store]
-  StoreConfig store;
+  // [keeper]
+  KeeperConfig keeper;
   // The whole file: the input module reads [input] and [[device]] from it (input::parse_mapping).
   toml::table mapping_table;
 };

@@ -129,8 +129,8 @@ void Daemon::open_store() {
 Daemon::StartPoint Daemon::install_first_scene() {
   std::optional<Recovered> rec;
   // --open: only a file that recovers replaces the saved sculpt (kept beside it).
-  if (keeper_ && !cfg_.store.open.empty()) rec = keeper_->open_file(cfg_.store.open, termination_pending);
-  else if (keeper_ && !cfg_.store.fresh) rec = keeper_->recover(termination_pending);
+  if (keeper_ && !cfg_.keeper.open.empty()) rec = keeper_->open_file(cfg_.keeper.open, termination_pending);
+  else if (keeper_ && !cfg_.keeper.fresh) rec = keeper_->recover(termination_pending);
   if (!rec) {
     if (keeper_) keeper_->start_anew();
     auto bundle = std::make_shared<SceneBundle>(read_bundle(cfg_.scene, simulation_settings(cfg_)));
@@ -144,7 +144,7 @@ Daemon::StartPoint Daemon::install_first_scene() {
     if (keeper_) keeper_->scene_started(bundle, std::move(copy), 0);
     return {};
   }
-  log_recovery(*rec, cfg_.scene, !cfg_.store.open.empty());
+  log_recovery(*rec, cfg_.scene, !cfg_.keeper.open.empty());
   Simulation sim = build_simulation(std::move(rec->scene), rec->bundle->settings, *board_, rec->state);
   sim.bundle = rec->bundle;
   sim.stages->set_journal(tap_.get(), sim.world.get());

@@ -7,11 +7,11 @@
 namespace sculpt::daemon {
 
 bool store_wanted(const DaemonConfig& c) {
-  if (!c.store.enabled) return false;
-  return c.input.kind != InputSpec::Kind::replay || !c.store.dir.empty();
+  if (!c.keeper.enabled) return false;
+  return c.input.kind != InputSpec::Kind::replay || !c.keeper.dir.empty();
 }
 
-std::filesystem::path state_dir(const StoreConfig& store) {
+std::filesystem::path state_dir(const KeeperConfig& store) {
   if (!store.dir.empty()) return store.dir;
   const auto env = [](const char* name) -> std::string {
     const char* v = std::getenv(name);
@@ -20,15 +20,15 @@ std::filesystem::path state_dir(const StoreConfig& store) {
   if (const std::string s = env("STATE_DIRECTORY"); !s.empty()) return s.substr(0, s.find(':'));
   if (const std::string s = env("XDG_STATE_HOME"); !s.empty()) return std::filesystem::path(s) / "sculptd";
   if (const std::string s = env("HOME"); !s.empty()) return std::filesystem::path(s) / ".local/state/sculptd";
-  throw ConfigError("[store]: no state directory: set dir, $STATE_DIRECTORY, $XDG_STATE_HOME or $HOME");
+  throw ConfigError("[keeper]: no state directory: set dir, $STATE_DIRECTORY, $XDG_STATE_HOME or $HOME");
 }
 
 KeeperSettings keeper_settings(const DaemonConfig& c) {
   KeeperSettings k;
-  k.dir = state_dir(c.store);
-  k.limits.max_bytes = static_cast<std::uint64_t>(std::llround(c.store.max_mb * 1048576.0));
-  k.snapshot_every = std::chrono::milliseconds(std::llround(c.store.snapshot_interval_s * 1000.0));
-  k.history_budget = static_cast<std::uint64_t>(std::llround(c.store.history_mb * 1048576.0));
+  k.dir = state_dir(c.keeper);
+  k.limits.max_bytes = static_cast<std::uint64_t>(std::llround(c.keeper.max_mb * 1048576.0));
+  k.snapshot_every = std::chrono::milliseconds(std::llround(c.keeper.snapshot_interval_s * 1000.0));
+  k.history_budget = static_cast<std::uint64_t>(std::llround(c.keeper.history_mb * 1048576.0));
   return k;
 }
 

@@ -256,14 +256,29 @@ TEST(Cli, BadFlagValuesAreNamed) {
   EXPECT_TRUE(parse_cli({"--config", "/etc/x.conf"}).config_given);
 }
 
+TEST(Config, TheKeeperSection) {
+  DaemonConfig c = parse_config(
+      "[keeper]\nenabled = false\ndir = \"/var/tmp/s\"\nsnapshot_interval_s = 5\nmax_mb = 64\nhistory_mb = 32\n", "f.conf");
+  EXPECT_FALSE(c.keeper.enabled);
+  EXPECT_EQ(c.keeper.dir, "/var/tmp/s");
+  EXPECT_EQ(c.keeper.snapshot_interval_s, 5.0);
+  EXPECT_EQ(c.keeper.max_mb, 64.0);
+  EXPECT_EQ(c.keeper.history_mb, 32.0);
+  EXPECT_NE(error_of("[keeper]\nmax_mb = 1\n").find("test.conf:2: keeper.max_mb: must be within"), std::string::npos);
+  EXPECT_NE(error_of("[keeper]\npath = \"x\"\n").find("keeper.path: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("[keeper]\nmax_mb = 64\n[store]\nmax_mb = 64\n").find("[store] and [keeper] both given"),
+            std::string::npos);
+}
+
+// [store], the section's old name, is still read (with a warning).
 TEST(Config, TheStore) {
   DaemonConfig c = parse_config(
       "[store]\nenabled = false\ndir = \"/var/tmp/s\"\nsnapshot_interval_s = 5\nmax_mb = 64\nhistory_mb = 32\n", "f.conf");
-  EXPECT_FALSE(c.store.enabled);
-  EXPECT_EQ(c.store.dir, "/var/tmp/s");
-  EXPECT_EQ(c.store.snapshot_interval_s, 5.0);
-  EXPECT_EQ(c.store.max_mb, 64.0);
-  EXPECT_EQ(c.store.history_mb, 32.0);
+  EXPECT_FALSE(c.keeper.enabled);
+  EXPECT_EQ(c.keeper.dir, "/var/tmp/s");
+  EXPECT_EQ(c.keeper.snapshot_interval_s, 5.0);
+  EXPECT_EQ(c.keeper.max_mb, 64.0);
+  EXPECT_EQ(c.keeper.history_mb, 32.0);
   EXPECT_NE(error_of("[store]\nmax_mb = 1\n").find("test.conf:2: store.max_mb: must be within"), std::string::npos);
   EXPECT_NE(error_of("[store]\npath = \"x\"\n").find("store.path: unknown key"), std::string::npos);
 
@@ -287,14 +302,14 @@ TEST(Config, AReplayIsSavedOnlyIntoADirectoryGivenForIt) {
 
 TEST(Config, TheStateDirectoryFollowsTheRule) {
   ::setenv("STATE_DIRECTORY", "/var/lib/sculptd:/var/lib/other", 1);
-  EXPECT_EQ(state_dir(StoreConfig{}), "/var/lib/sculptd");
+  EXPECT_EQ(state_dir(KeeperConfig{}), "/var/lib/sculptd");
   ::unsetenv("STATE_DIRECTORY");
   ::setenv("XDG_STATE_HOME", "/home/u/.state", 1);
-  EXPECT_EQ(state_dir(StoreConfig{}), "/home/u/.state/sculptd");
+  EXPECT_EQ(state_dir(KeeperConfig{}), "/home/u/.state/sculptd");
   ::unsetenv("XDG_STATE_HOME");
   ::setenv("HOME", "/home/u", 1);
-  EXPECT_EQ(state_dir(StoreConfig{}), "/home/u/.local/state/sculptd");
-  StoreConfig given;
+  EXPECT_EQ(state_dir(KeeperConfig{}), "/home/u/.local/state/sculptd");
+  KeeperConfig given;
   given.dir = "/srv/s";
   EXPECT_EQ(state_dir(given), "/srv/s");
 }
@@ -307,10 +322,10 @@ TEST(Cli, StoreFlagsThatCannotGoTogetherAreNamed) {
   EXPECT_NE(msg({"--state-dir", ""}).find("--state-dir"), std::string::npos);
   DaemonConfig d;
   parse_cli({"--open", "a.sculpt"}).apply(d);
-  EXPECT_EQ(d.store.open, "a.sculpt");
-  EXPECT_TRUE(d.store.enabled);
+  EXPECT_EQ(d.keeper.open, "a.sculpt");
+  EXPECT_TRUE(d.keeper.enabled);
   parse_cli({"--fresh"}).apply(d);
-  EXPECT_TRUE(d.store.fresh);
+  EXPECT_TRUE(d.keeper.fresh);
 }
 
 }  // namespace
