@@ -62,7 +62,7 @@ struct DaemonConfig {
   bool realtime = false;
   int realtime_priority = 50;
   // Sleep until this long before each deadline and spin the rest; unset:
-  // 100 with realtime (measured: docs/daemon.md), else 0.
+  // 100 with realtime (measured: docs/benchmarks.md), else 0.
   std::optional<double> wake_early_us;
   log::Level log_level = log::Level::info;
   std::string stats_json;               // "" : none

@@ -29,7 +29,7 @@ void for_each_piece(B& b, std::uint32_t overflow_slots, std::uint32_t blk, F&& p
     piece(p + per_vertex * b0, per_vertex * count * sizeof(*p), per_vertex * kBlock * sizeof(*p));
   };
   one(b.block[blk]);  // first: the recorder patches it in place (stroke_recorder.cpp)
-  one(b.snapshot_grid[blk]);
+  one(b.checkpoint_grid[blk]);
   for (auto* a : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz}) rows(a->data(), 1);
   if (b.plastic)
     for (auto* a : {&b.rx, &b.ry, &b.rz, &b.srx, &b.sry, &b.srz}) rows(a->data(), 1);
@@ -154,7 +154,7 @@ std::string block_image_error(const Body<S>& b, const BlockImageLayout& layout, 
       if (s.quiet_ticks < 0 || s.quiet_ticks > bounds.sleep_ticks) return fail("its quiet ticks are out of range");
       state = s;
       awake = std::to_integer<unsigned>(at[offsetof(T, awake)]) != 0;
-    } else if constexpr (std::is_same_v<T, SnapshotGrid<S>>) {
+    } else if constexpr (std::is_same_v<T, CheckpointGrid<S>>) {
       T g;
       std::memcpy(&g, at, sizeof g);
       for (int k = 0; k < 3; ++k)

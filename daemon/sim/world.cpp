@@ -25,7 +25,7 @@ namespace {
 
 using kernel::kBlock;
 
-constexpr int kSnapshotInterval = 32;  // ticks between good-state snapshots of moving blocks
+constexpr int kCheckpointInterval = 32;  // ticks between good-state checkpoints of moving blocks
 constexpr double kEnergyGrowth = 4.0;  // energy may fluctuate (Verlet's measured energy wobbles) but not 4×
 
 bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
@@ -358,10 +358,10 @@ void World<S>::settle(Body<S>& b, double energy) {
       sleep_block(b, blk);
     }
   }
-  if (++b.snapshot_age >= kSnapshotInterval && energy <= 2.0 * b.energy_ref + b.energy_floor) {
-    b.snapshot_age = 0;
+  if (++b.checkpoint_age >= kCheckpointInterval && energy <= 2.0 * b.energy_ref + b.energy_floor) {
+    b.checkpoint_age = 0;
     for (std::uint32_t blk = 0; blk < b.blocks; ++blk)
-      if (b.block[blk].dirty && b.block[blk].awake) snapshot_block(b, blk);
+      if (b.block[blk].dirty && b.block[blk].awake) checkpoint_block(b, blk);
   }
   if (b.awake_blocks == 0) b.energy_ref = std::max(0.0, energy);
   update_box(b);

@@ -148,7 +148,7 @@ void Store::insert_snapshot(const PreparedSnapshot& s) {
 // Copies the WAL into the database and truncates it to zero bytes, so the
 // disk holds the snapshot once. Not a failure when it cannot: the commit is
 // durable in the WAL already, and SQLite's automatic checkpoint keeps going.
-void Store::checkpoint() {
+void Store::wal_checkpoint() {
   sqlite3_wal_checkpoint_v2(db_.handle(), nullptr, SQLITE_CHECKPOINT_TRUNCATE, nullptr, nullptr);
 }
 
@@ -191,7 +191,7 @@ Status Store::write_snapshot(const PreparedSnapshot& prepared) {
   });
   if (s.ok) {
     written();
-    checkpoint();
+    wal_checkpoint();
   }
   return s;
 }
@@ -210,7 +210,7 @@ void Store::clear() {
   pending_.clear();
   pending_bytes_ = 0;
   gap_.reset();
-  checkpoint();
+  wal_checkpoint();
 }
 
 void Store::export_copy(const std::filesystem::path& file) {

@@ -161,7 +161,7 @@ std::vector<BodyBytes> split_state(std::span<const std::byte> bytes) {
       p.value<std::uint32_t>(), p.value<std::uint8_t>();
     }
     for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // snapshot
-    per_block(body, p.array(sizeof(SnapshotGrid<S>), {blocks}), sizeof(SnapshotGrid<S>));
+    per_block(body, p.array(sizeof(CheckpointGrid<S>), {blocks}), sizeof(CheckpointGrid<S>));
     for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's snapshot rest shape
     columns(body, p.array(s, {cols * n, 0}), s, n);
     p.value<double>(), p.value<double>(), p.value<std::uint64_t>();  // energies, blow-ups
