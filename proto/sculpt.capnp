@@ -146,7 +146,7 @@ struct Stats {
   # bucket (only non-empty buckets): two reads diffed give the jitter of what
   # happened in between (the streaming benchmark compares windows with it).
   jitterHistogram @16 :List(HistogramBucket);
-  # (minor 2) Why ticks overran (daemon/loop/overrun.hpp): counts by cause
+  # (minor 2) Why ticks overran (daemon/simloop/overrun.hpp): counts by cause
   # since the loop started, the last few overruns, and the sim thread's own
   # kernel counters since the loop started.
   overrunCauses @17 :OverrunCauses;

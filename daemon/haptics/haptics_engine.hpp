@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "input/input_message.hpp"  // input::kMaxDevices
 #include "haptics/device_player.hpp"
 #include "haptics/device_tuning.hpp"
 #include "haptics/effect_math.hpp"
@@ -89,7 +90,7 @@ struct HapticsStats {
   std::atomic<std::uint64_t> stalls{0};       // sim thread stalls seen (effects zeroed)
   std::atomic<std::uint64_t> resumes{0};      // resumes from suspend seen (devices reopened)
   // Per device slot (the input layer's slots, which a replugged device keeps).
-  static constexpr int kSlots = 16;
+  static constexpr int kSlots = static_cast<int>(input::kMaxDevices);  // one per device slot
   std::array<std::atomic<std::uint64_t>, kSlots> slot_uploads{};       // successful uploads since start
   std::array<std::atomic<std::int64_t>, kSlots> slot_first_upload_ns{}; // latest attach → its first success
   std::array<std::atomic<std::uint16_t>, kSlots> slot_bustype{};       // 0: unknown / nothing attached

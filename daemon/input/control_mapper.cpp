@@ -15,7 +15,7 @@
 
 namespace sculpt::input {
 
-ControlMapper::ControlMapper(std::size_t tools) : tools_(std::min(tools, kMaxTools)) {}
+ControlMapper::ControlMapper(std::size_t tools) : tools_(std::min(tools, sim::kMaxTools)) {}
 
 void ControlMapper::apply(const InputMessage& m) {
   if (m.slot >= kMaxDevices) return;
@@ -101,7 +101,7 @@ void ControlMapper::check_state(const sim::StateView& view) const {
         throw std::invalid_argument("mapper state: " + at + ": axis value " + std::to_string(v));
   }
   const auto controls = view.bytes_of(&controls_);
-  for (std::size_t t = 0; t < kMaxTools; ++t) {
+  for (std::size_t t = 0; t < sim::kMaxTools; ++t) {
     const std::span<const std::byte> raw = controls.subspan(t * sizeof(ToolControl), sizeof(ToolControl));
     const std::string at = "tool " + std::to_string(t);
     flag(raw, offsetof(ToolControl, grab), at + " grab");

@@ -28,7 +28,7 @@ struct ToolControl {
 
 class ControlMapper {
  public:
-  explicit ControlMapper(std::size_t tools = kMaxTools);
+  explicit ControlMapper(std::size_t tools = sim::kMaxTools);
 
   void apply(const InputMessage& message);
 
@@ -73,7 +73,7 @@ class ControlMapper {
 
   std::size_t tools_;
   std::array<DeviceState, kMaxDevices> devices_{};
-  std::array<ToolControl, kMaxTools> controls_{};
+  std::array<ToolControl, sim::kMaxTools> controls_{};
   std::uint64_t late_ = 0;
   std::uint32_t undo_presses_ = 0, redo_presses_ = 0;
 };

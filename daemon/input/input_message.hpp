@@ -11,11 +11,12 @@
 #include <type_traits>
 
 #include "input/calibration.hpp"
+#include "sim/limits.hpp"  // sim::kMaxTools
 
 namespace sculpt::input {
 
-inline constexpr std::size_t kMaxDevices = 8;       // device slots
-inline constexpr std::size_t kMaxTools = 8;         // tools a scene may have driven
+inline constexpr std::size_t kMaxDevices = 8;       // device slots (haptics counts per slot too)
+static_assert(kMaxDevices <= 255, "a slot is a byte in InputMessage and the journal");
 inline constexpr std::size_t kMaxBoundAxes = 16;    // per device
 inline constexpr std::size_t kMaxBoundButtons = 24; // per device
 inline constexpr std::size_t kMaxFrameEvents = 48;  // longer reports are split into several frames

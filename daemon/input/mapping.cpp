@@ -257,7 +257,7 @@ DeviceBinding make_binding(const DeviceInfo& info, const DeviceMapping& mapping,
     }
   };
   for (const auto& [tool, stick] : tools) {
-    if (tool >= kMaxTools) continue;
+    if (tool >= sim::kMaxTools) continue;
     const StickMapping& sm = mapping[stick];
     for (Role role : {Role::x, Role::y, Role::depth}) {
       const auto& c = sm[role];
@@ -280,7 +280,7 @@ DeviceBinding make_binding(const DeviceInfo& info, const DeviceMapping& mapping,
     add_buttons(tool, sm, true);
   }
   // One tool on the device: every hand's buttons serve it.
-  if (tools.size() == 1 && tools[0].first < kMaxTools) {
+  if (tools.size() == 1 && tools[0].first < sim::kMaxTools) {
     for (const auto& sm : mapping.sticks) add_buttons(tools[0].first, sm, false);
   }
   // A tool is "driven" even when only buttons bind it; make sure the mask says so.
@@ -300,7 +300,7 @@ DeviceBinding ToolRouter::attach(std::uint8_t slot, const DeviceInfo& info, cons
   warnings_.clear();
   const DeviceMapping mapping = resolve_mapping(info, config);
   std::vector<std::pair<std::uint8_t, Stick>> tools;
-  const std::size_t n = std::min(routes_.size(), kMaxTools);
+  const std::size_t n = std::min(routes_.size(), sim::kMaxTools);
   for (std::size_t t = 0; t < n; ++t) {
     const ToolRoute& r = routes_[t];
     bool mine;

@@ -134,7 +134,7 @@ class ToolRouter {
 
  private:
   std::vector<ToolRoute> routes_;
-  std::array<int, kMaxTools> claimed_by_{};  // slot + 1 that drives tool t, 0 = none
+  std::array<int, sim::kMaxTools> claimed_by_{};  // slot + 1 that drives tool t, 0 = none
   std::vector<std::string> warnings_;
 };
 

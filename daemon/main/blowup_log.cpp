@@ -12,7 +12,7 @@ void BlowupLog::reset(std::vector<std::string> mesh_names) {
   next_ = {};
 }
 
-std::string BlowupLog::describe(const loop::LoopStats& stats) const {
+std::string BlowupLog::describe(const simloop::LoopStats& stats) const {
   const std::uint32_t body = stats.last_blowup_body.load(std::memory_order_relaxed);
   const auto cause = static_cast<sim::BlowupCause>(stats.last_blowup_cause.load(std::memory_order_relaxed));
   const std::string mesh = body < names_.size() ? "mesh '" + names_[body] + "'" : fmt::format("body {}", body);
@@ -22,7 +22,7 @@ std::string BlowupLog::describe(const loop::LoopStats& stats) const {
                          : "its energy grew fourfold with no tool or grab adding any");
 }
 
-std::string BlowupLog::check(const loop::LoopStats& stats, std::uint64_t tick, Clock::time_point now) {
+std::string BlowupLog::check(const simloop::LoopStats& stats, std::uint64_t tick, Clock::time_point now) {
   const std::uint64_t total = stats.blowups.load(std::memory_order_acquire);  // then body and cause
   if (total <= seen_) return {};
   std::string line;

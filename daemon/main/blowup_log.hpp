@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "loop/sim_thread.hpp"
+#include "simloop/sim_thread.hpp"
 
 namespace sculpt::daemon {
 
@@ -23,10 +23,10 @@ class BlowupLog {
   // A new scene (its world counts from zero): the names of its meshes, body order.
   void reset(std::vector<std::string> mesh_names);
   // Reads the counters; returns the line to log, or "" when nothing is due.
-  std::string check(const loop::LoopStats& stats, std::uint64_t tick, Clock::time_point now);
+  std::string check(const simloop::LoopStats& stats, std::uint64_t tick, Clock::time_point now);
 
  private:
-  std::string describe(const loop::LoopStats& stats) const;
+  std::string describe(const simloop::LoopStats& stats) const;
 
   std::vector<std::string> names_;
   std::uint64_t seen_ = 0;        // blow-ups already reported

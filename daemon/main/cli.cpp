@@ -42,7 +42,7 @@ void add_options(CLI::App& app, CliOptions& o) {
   app.add_flag("--fresh", o.fresh, "start the scene anew instead of resuming the saved sculpt (which is replaced)");
   optional_option(app, "--open", o.open, "start from a sculpt exported with `sculptctl export` (replaces the saved one)",
                   "FILE.sculpt");
-  app.add_flag("--no-store", o.no_store, "no autosave, history on disk or recovery");
+  app.add_flag("--no-store", o.no_store, "no keeper: no history on disk, no recovery");
   app.add_flag("--check", o.check, "check the config and the scene (and probe its stability), then exit");
 }
 
@@ -58,7 +58,7 @@ void CliOptions::apply(DaemonConfig& c) const {
   if (scene) c.scene = *scene;
   if (socket) c.socket = *socket;
   if (rate_hz) {
-    if (!(*rate_hz >= kRateRange.lo && *rate_hz <= kRateRange.hi))
+    if (!(*rate_hz >= simloop::kRateRange.lo && *rate_hz <= simloop::kRateRange.hi))
       throw ConfigError("--rate: must be within [1, 100000] Hz");
     c.rate_hz = *rate_hz;
   }
@@ -80,17 +80,17 @@ void CliOptions::apply(DaemonConfig& c) const {
   if (no_realtime) c.realtime = false;
   if (state_dir) {
     if (state_dir->empty()) throw ConfigError("--state-dir: must name a directory");
-    c.store.dir = *state_dir;
-    c.store.enabled = true;
+    c.keeper.dir = *state_dir;
+    c.keeper.enabled = true;
   }
   if (no_store && (state_dir || fresh || open)) throw ConfigError("--no-store: cannot go with --state-dir, --fresh or --open");
   if (fresh && open) throw ConfigError("--fresh and --open: choose one");
-  if (no_store) c.store.enabled = false;
-  if (fresh) c.store.fresh = true;
+  if (no_store) c.keeper.enabled = false;
+  if (fresh) c.keeper.fresh = true;
   if (open) {
     if (open->empty()) throw ConfigError("--open: must name a .sculpt file");
-    c.store.open = *open;
-    c.store.enabled = true;
+    c.keeper.open = *open;
+    c.keeper.enabled = true;
   }
   if (stats_json) c.stats_json = *stats_json;
   if (hash_out) c.hash_out = *hash_out;

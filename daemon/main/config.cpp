@@ -101,7 +101,7 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
   r.get("scene", c.scene);
   r.get("socket", c.socket);
   double rate = 0;
-  if (r.get("rate_hz", rate, kRateRange.lo, kRateRange.hi)) c.rate_hz = rate;
+  if (r.get("rate_hz", rate, simloop::kRateRange.lo, simloop::kRateRange.hi)) c.rate_hz = rate;
   std::string s;
   if (r.get("input", s)) {
     try {
@@ -131,20 +131,21 @@ void read_daemon(const Path& file, const toml::table& t, DaemonConfig& c) {
 void read_tools(const Path& file, const toml::table& t, DaemonConfig& c) {
   check_keys(file, t, "tools", {"margin", "size_step", "min_scale", "max_scale"});
   const Reader r{file, t, "tools"};
-  r.get("margin", c.tool_margin, kToolMarginRange.lo, kToolMarginRange.hi);
-  r.get("size_step", c.size_step, kSizeStepRange.lo, kSizeStepRange.hi);
-  r.get("min_scale", c.min_scale, kMinScaleRange.lo, kMinScaleRange.hi);
-  r.get("max_scale", c.max_scale, kMaxScaleRange.lo, kMaxScaleRange.hi);
+  r.get("margin", c.tool_margin, simloop::kToolMarginRange.lo, simloop::kToolMarginRange.hi);
+  r.get("size_step", c.size_step, simloop::kSizeStepRange.lo, simloop::kSizeStepRange.hi);
+  r.get("min_scale", c.min_scale, simloop::kMinScaleRange.lo, simloop::kMinScaleRange.hi);
+  r.get("max_scale", c.max_scale, simloop::kMaxScaleRange.lo, simloop::kMaxScaleRange.hi);
 }
 
-void read_store(const Path& file, const toml::table& t, DaemonConfig& c) {
-  check_keys(file, t, "store", {"enabled", "dir", "snapshot_interval_s", "max_mb", "history_mb"});
-  const Reader r{file, t, "store"};
-  r.get("enabled", c.store.enabled);
-  r.get("dir", c.store.dir);
-  r.get("snapshot_interval_s", c.store.snapshot_interval_s, 1.0, 86400.0);
-  r.get("max_mb", c.store.max_mb, 16.0, 1048576.0);
-  r.get("history_mb", c.store.history_mb, 0.0, 1048576.0);
+// `section`: "keeper", or its old name "store" (errors name the one written).
+void read_keeper(const Path& file, const toml::table& t, const char* section, DaemonConfig& c) {
+  check_keys(file, t, section, {"enabled", "dir", "snapshot_interval_s", "max_mb", "history_mb"});
+  const Reader r{file, t, section};
+  r.get("enabled", c.keeper.enabled);
+  r.get("dir", c.keeper.dir);
+  r.get("snapshot_interval_s", c.keeper.snapshot_interval_s, 1.0, 86400.0);
+  r.get("max_mb", c.keeper.max_mb, 16.0, 1048576.0);
+  r.get("history_mb", c.keeper.history_mb, 0.0, 1048576.0);
 }
 
 // One [[haptics.device]] entry: what it matches (at least one of vendor,
@@ -254,14 +255,33 @@ DaemonConfig parse_config(std::string_view text, const std::filesystem::path& fi
   }
   DaemonConfig c;
   c.file = file;
-  check_keys(file, root, "", {"daemon", "tools", "haptics", "store", "input", "device"});
+  check_keys(file, root, "", {"daemon", "tools", "haptics", "keeper", "store", "input", "device"});
   if (const toml::table* t = sub_table(file, root, "daemon")) read_daemon(file, *t, c);
   if (const toml::table* t = sub_table(file, root, "tools")) read_tools(file, *t, c);
   if (const toml::table* t = sub_table(file, root, "haptics")) read_haptics(file, *t, c);
-  if (const toml::table* t = sub_table(file, root, "store")) read_store(file, *t, c);
+  const toml::table* keeper = sub_table(file, root, "keeper");
+  const toml::table* store = sub_table(file, root, "store");
+  if (keeper && store)
+    throw ConfigError(fmt::format("{}: [store] and [keeper] both given: [store] is the old name of [keeper]; keep one",
+                                  file.string()));
+  if (keeper) read_keeper(file, *keeper, "keeper", c);
+  if (store) {
+    log::warning("{}: [store] is now called [keeper]: rename the section (it is read as [keeper])", file.string());
+    read_keeper(file, *store, "store", c);
+  }
   // The input module reads its own keys ([input], [[device]]) from the root.
   c.mapping_table = std::move(root);
   return c;
+}
+
+simloop::SimulationSettings simulation_settings(const DaemonConfig& config) {
+  const bool replay = config.input.kind == InputSpec::Kind::replay;
+  return simloop::SimulationSettings{.rate_hz = config.rate_hz,
+                                  .tool_margin = config.tool_margin,
+                                  .size_step = config.size_step,
+                                  .min_scale = config.min_scale,
+                                  .max_scale = config.max_scale,
+                                  .ring_capacity = replay ? simloop::kReplayRingCapacity : simloop::kLiveRingCapacity};
 }
 
 DaemonConfig load_config(const std::filesystem::path& file, bool optional) {

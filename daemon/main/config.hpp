@@ -13,23 +13,11 @@
 #include <toml++/toml.h>
 
 #include "haptics/haptics_engine.hpp"
-#include "main/log.hpp"
+#include "simloop/simulation_settings.hpp"
+#include "devices/input_spec.hpp"
+#include "log/log.hpp"
 
 namespace sculpt::daemon {
-
-// The ranges a config file, the command line and a stored scene bundle are
-// all held to: a .sculpt file is no more trusted than a config.
-struct SettingRange {
-  const char* name;
-  double lo, hi;
-};
-inline constexpr SettingRange kRateRange{"rate_hz", 1.0, 100000.0};
-inline constexpr SettingRange kToolMarginRange{"tools.margin", 0.0, 100.0};
-inline constexpr SettingRange kSizeStepRange{"tools.size_step", 1.0001, 10.0};
-inline constexpr SettingRange kMinScaleRange{"tools.min_scale", 1e-3, 1.0};
-inline constexpr SettingRange kMaxScaleRange{"tools.max_scale", 1.0, 1000.0};
-// The input ring: the daemon uses 4096, or 16384 for a replay.
-inline constexpr SettingRange kRingCapacityRange{"input ring capacity", 16.0, 16384.0};
 
 inline constexpr const char* kDefaultConfigPath = "/etc/sculptd/sculptd.conf";
 // No socket given (flag or config file): the path follows the clients' rule
@@ -42,20 +30,13 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// --input: where tool controls come from.
-struct InputSpec {
-  enum class Kind { automatic, evdev, replay };
-  Kind kind = Kind::automatic;   // auto: live devices, udev when udevd runs, else inotify on /dev/input
-  std::filesystem::path replay;  // replay:FILE
-};
 // "auto", "evdev" or "replay:FILE"; throws ConfigError naming `what`.
 InputSpec parse_input_spec(std::string_view text, std::string_view what);
 std::string to_string(const InputSpec& spec);
 
-enum class InputClock { arrival, device };
-
-// [store]: autosave, history and recovery (main/keeper.hpp, docs/store.md).
-struct StoreConfig {
+// [keeper]: the keeper (keeper/keeper.hpp, docs/store.md): the store, the
+// history and recovery. Its old name [store] is still read, with a warning.
+struct KeeperConfig {
   bool enabled = true;
   // "": $STATE_DIRECTORY (systemd's StateDirectory=), else
   // $XDG_STATE_HOME/sculptd, else ~/.local/state/sculptd.
@@ -81,7 +62,7 @@ struct DaemonConfig {
   bool realtime = false;
   int realtime_priority = 50;
   // Sleep until this long before each deadline and spin the rest; unset:
-  // 100 with realtime (measured: docs/daemon.md), else 0.
+  // 100 with realtime (measured: docs/benchmarks.md), else 0.
   std::optional<double> wake_early_us;
   log::Level log_level = log::Level::info;
   std::string stats_json;               // "" : none
@@ -94,14 +75,17 @@ struct DaemonConfig {
   double max_scale = 4.0;
   // [haptics]
   haptics::HapticsSettings haptics;
-  // [store]
-  StoreConfig store;
+  // [keeper]
+  KeeperConfig keeper;
   // The whole file: the input module reads [input] and [[device]] from it (input::parse_mapping).
   toml::table mapping_table;
 };
 
 // Parses config text; `file` names it in errors. Throws ConfigError.
 DaemonConfig parse_config(std::string_view text, const std::filesystem::path& file);
+// What a scene's build reads of `config` (host/simulation.hpp), copied for the worker thread.
+simloop::SimulationSettings simulation_settings(const DaemonConfig& config);
+
 // Reads and parses a file. A missing file is an error unless `optional`
 // (the default path may legitimately not exist): then the defaults.
 DaemonConfig load_config(const std::filesystem::path& file, bool optional);

@@ -4,7 +4,7 @@
 #include <optional>
 #include <utility>
 
-#include "main/log.hpp"
+#include "log/log.hpp"
 
 namespace sculpt::daemon {
 
@@ -12,10 +12,10 @@ std::string restart_needed(const DaemonConfig& running, const DaemonConfig& next
   if (next.scene != running.scene || next.rate_hz != running.rate_hz ||
       to_string(next.input) != to_string(running.input) || next.realtime != running.realtime ||
       next.realtime_priority != running.realtime_priority || next.wake_early_us != running.wake_early_us ||
-      next.socket != running.socket || next.store.enabled != running.store.enabled ||
-      next.store.dir != running.store.dir || next.store.snapshot_interval_s != running.store.snapshot_interval_s ||
-      next.store.max_mb != running.store.max_mb || next.store.history_mb != running.store.history_mb)
-    return "SIGHUP: scene, rate, input, socket, realtime, realtime_priority, wake_early_us and [store] changes "
+      next.socket != running.socket || next.keeper.enabled != running.keeper.enabled ||
+      next.keeper.dir != running.keeper.dir || next.keeper.snapshot_interval_s != running.keeper.snapshot_interval_s ||
+      next.keeper.max_mb != running.keeper.max_mb || next.keeper.history_mb != running.keeper.history_mb)
+    return "SIGHUP: scene, rate, input, socket, realtime, realtime_priority, wake_early_us and [keeper] changes "
            "take effect at the next start";
   return {};
 }

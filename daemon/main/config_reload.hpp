@@ -12,7 +12,7 @@
 #include <kj/async.h>
 
 #include "main/config.hpp"
-#include "main/worker.hpp"
+#include "host/worker.hpp"
 
 namespace sculpt::daemon {
 

@@ -3,19 +3,19 @@
 #include <cmath>
 #include <filesystem>
 
-#include "loop/stats.hpp"
-#include "main/scene_bundle.hpp"
+#include "simloop/stats.hpp"
+#include "keeper/scene_bundle.hpp"
 
 namespace sculpt::daemon {
 
 server::DaemonStatus ControlDesk::status() {
   server::DaemonStatus d;
-  const loop::LoopStats& stats = sims_.stats();
-  d.stats = loop::snapshot(stats, sims_.rate());
-  const loop::LatencyHistogram& j = stats.jitter;
-  for (std::size_t i = 0; i < loop::LatencyHistogram::kBuckets; ++i)
+  const simloop::LoopStats& stats = sims_.stats();
+  d.stats = simloop::reading(stats, sims_.rate());
+  const simloop::LatencyHistogram& j = stats.jitter;
+  for (std::size_t i = 0; i < simloop::LatencyHistogram::kBuckets; ++i)
     if (const std::uint64_t n = j.bucket(i))
-      d.jitter.push_back({loop::LatencyHistogram::lower_bound(i), loop::LatencyHistogram::upper_bound(i), n});
+      d.jitter.push_back({simloop::LatencyHistogram::lower_bound(i), simloop::LatencyHistogram::upper_bound(i), n});
   d.stats.devices = device_count();
   d.stats.ff_uploads = ff_uploads();
   d.paused = sims_.paused();

@@ -13,10 +13,10 @@
 #include <kj/async.h>
 
 #include "haptics/haptics_thread.hpp"
-#include "main/device_hub.hpp"
-#include "main/input_source.hpp"
-#include "main/keeper.hpp"
-#include "main/sim_host.hpp"
+#include "devices/device_hub.hpp"
+#include "devices/input_source.hpp"
+#include "keeper/keeper.hpp"
+#include "host/sim_host.hpp"
 #include "scene/scene.hpp"
 #include "server/daemon_control.hpp"
 

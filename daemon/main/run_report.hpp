@@ -5,13 +5,13 @@
 
 #include <cstdint>
 
-#include "loop/stats.hpp"
+#include "simloop/stats.hpp"
 #include "main/config.hpp"
 
 namespace sculpt::daemon {
 
 struct RunTotals {
-  loop::StatsSnapshot stats;
+  simloop::StatsReading stats;
   std::uint64_t ff_errors = 0;
   std::uint64_t mesh_hash = 0;
   std::uint64_t late_inputs = 0;  // scheduled inputs applied after their tick

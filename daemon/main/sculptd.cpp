@@ -7,7 +7,7 @@
 #include "main/config.hpp"
 #include "main/daemon.hpp"
 #include "input/mapping.hpp"
-#include "main/log.hpp"
+#include "log/log.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_world.hpp"
 

@@ -4,7 +4,7 @@
 
 #include <cstring>
 
-#include "main/log.hpp"
+#include "log/log.hpp"
 
 namespace sculpt::daemon {
 

@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "scene/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 #include "scene/errors.hpp"
 
 namespace sculpt::scene {
@@ -192,7 +192,11 @@ void export_mesh(const sim::TriangleMesh& mesh, const std::filesystem::path& fil
   } catch (const std::invalid_argument& e) {
     throw ExportError(file, e.what());
   }
-  write_file_atomically(file, bytes);
+  try {
+    files::write_file_atomically(file, bytes);
+  } catch (const files::FileError& e) {
+    throw ExportError(file, e.reason());
+  }
 }
 
 }  // namespace sculpt::scene

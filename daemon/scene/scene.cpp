@@ -547,7 +547,7 @@ Scene parse_scene(std::string_view text, const fs::path& file, const SceneOption
     for (std::size_t i = 0; i < tools->size(); ++i) {
       const Table t(file, *tools->get(i)->as_table(), fmt::format("[[tool]] #{}", i + 1),
                     {"name", "shape", "radius", "half_length", "device", "stick", "position", "speed"});
-      if (i == kMaxTools) t.fail_here(fmt::format("more than {} tools: at most {} can be driven", kMaxTools, kMaxTools));
+      if (i == sim::kMaxTools) t.fail_here(fmt::format("more than {} tools: at most {} can be driven", sim::kMaxTools, sim::kMaxTools));
       SceneTool tool = parse_tool(t, i);
       if (!tool_names.insert(tool.name).second) t.fail("name", fmt::format("'{}' is already used by another tool", tool.name));
       for (const SceneTool& other : scene.tools) {

@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "sim/limits.hpp"
 #include "scene/errors.hpp"
 #include "scene/mesh_import.hpp"
 #include "sim/material.hpp"
@@ -22,10 +23,9 @@ namespace sculpt::scene {
 using Vec3d = std::array<double, 3>;
 
 // The rates the simulation thread runs at, and how many tools it can drive
-// (input::kMaxTools): a scene outside these is refused where it is read.
+// (sim::kMaxTools): a scene outside these is refused where it is read.
 inline constexpr double kMinRateHz = 1.0;
 inline constexpr double kMaxRateHz = 100000.0;
-inline constexpr std::size_t kMaxTools = 8;
 
 // Applied as p' = R·(scale ⊙ p) + position, R = Rz·Ry·Rx (degrees about the
 // scene's fixed x, then y, then z axes).

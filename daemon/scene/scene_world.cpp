@@ -13,8 +13,8 @@ std::unique_ptr<sim::World<float>> build_world(const Scene& scene, double rate_h
   if (!(rate_hz >= kMinRateHz && rate_hz <= kMaxRateHz))
     throw SceneError(scene.file, 0, fmt::format("rate {} Hz is outside [{}, {}] Hz", rate_hz, kMinRateHz, kMaxRateHz));
   if (scene.meshes.empty()) throw SceneError(scene.file, 0, "the scene has no meshes: nothing to sculpt");
-  if (scene.tools.size() > kMaxTools)
-    throw SceneError(scene.file, 0, fmt::format("{} tools, at most {} can be driven", scene.tools.size(), kMaxTools));
+  if (scene.tools.size() > sim::kMaxTools)
+    throw SceneError(scene.file, 0, fmt::format("{} tools, at most {} can be driven", scene.tools.size(), sim::kMaxTools));
   sim::SimSettings settings = scene.settings;
   settings.rate_hz = rate_hz;
   std::unique_ptr<sim::World<float>> world;

@@ -9,7 +9,7 @@
 
 #include <kj/async.h>
 
-#include "loop/stats.hpp"
+#include "simloop/stats.hpp"
 
 namespace sculpt::server {
 
@@ -42,7 +42,7 @@ struct HistogramBucket {
 };
 
 struct DaemonStatus {
-  loop::StatsSnapshot stats;              // viewers and bytes_sent are filled in by the server
+  simloop::StatsReading stats;              // viewers and bytes_sent are filled in by the server
   std::vector<HistogramBucket> jitter;    // non-empty buckets of the loop's jitter histogram
   bool paused = false;
   double uptime_s = 0;

@@ -14,13 +14,13 @@ void set_vec(proto::Vec3::Builder v, const std::array<float, 3>& a) {
   v.setZ(a[2]);
 }
 
-void set_quantiles(proto::Quantiles::Builder q, const loop::Percentiles& p) {
+void set_quantiles(proto::Quantiles::Builder q, const simloop::Percentiles& p) {
   q.setP50(static_cast<float>(p.p50));
   q.setP99(static_cast<float>(p.p99));
   q.setMax(static_cast<float>(p.max));
 }
 
-loop::Percentiles percentiles(proto::Quantiles::Reader q) { return {q.getP50(), q.getP99(), q.getMax()}; }
+simloop::Percentiles percentiles(proto::Quantiles::Reader q) { return {q.getP50(), q.getP99(), q.getMax()}; }
 
 }  // namespace
 
@@ -109,16 +109,16 @@ void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, c
 
 namespace {
 
-// Stats minor 2 (3's workNvcsw, 4's workNvcswNoFault): why ticks overran, exactly as loop::snapshot has it.
-void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
-  using loop::OverrunCause;
+// Stats minor 2 (3's workNvcsw, 4's workNvcswNoFault): why ticks overran, exactly as simloop::snapshot has it.
+void fill_overruns(proto::Stats::Builder out, const simloop::StatsReading& s) {
+  using simloop::OverrunCause;
   auto c = out.initOverrunCauses();
   c.setLateWake(s.overrun_causes[static_cast<std::size_t>(OverrunCause::late_wake)]);
   c.setLongStep(s.overrun_causes[static_cast<std::size_t>(OverrunCause::long_step)]);
   c.setLongStepOffCpu(s.long_steps_off_cpu);
   auto recent = out.initRecentOverruns(static_cast<unsigned>(s.recent_overruns.size()));
   for (unsigned i = 0; i < recent.size(); ++i) {
-    const loop::OverrunRecord& r = s.recent_overruns[i];
+    const simloop::OverrunRecord& r = s.recent_overruns[i];
     auto o = recent[i];
     o.setTick(r.tick);
     o.setCause(r.cause == OverrunCause::long_step ? proto::OverrunCause::LONG_STEP : proto::OverrunCause::LATE_WAKE);
@@ -142,14 +142,14 @@ void fill_overruns(proto::Stats::Builder out, const loop::StatsSnapshot& s) {
   t.setWorkNvcswNoFault(s.sim_thread.work_nvcsw_no_fault);
 }
 
-void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
-  using loop::OverrunCause;
+void read_overruns(proto::Stats::Reader in, simloop::StatsReading& s) {
+  using simloop::OverrunCause;
   const auto c = in.getOverrunCauses();
   s.overrun_causes[static_cast<std::size_t>(OverrunCause::late_wake)] = c.getLateWake();
   s.overrun_causes[static_cast<std::size_t>(OverrunCause::long_step)] = c.getLongStep();
   s.long_steps_off_cpu = c.getLongStepOffCpu();
   for (const auto o : in.getRecentOverruns()) {
-    loop::OverrunRecord r;
+    simloop::OverrunRecord r;
     r.tick = o.getTick();
     r.cause = o.getCause() == proto::OverrunCause::LONG_STEP ? OverrunCause::long_step : OverrunCause::late_wake;
     r.off_cpu = o.getOffCpu();
@@ -176,14 +176,14 @@ void read_overruns(proto::Stats::Reader in, loop::StatsSnapshot& s) {
 }  // namespace
 
 void fill_stats(proto::Stats::Builder out, const DaemonStatus& d) {
-  const loop::StatsSnapshot& s = d.stats;
+  const simloop::StatsReading& s = d.stats;
   out.setRateHz(static_cast<float>(s.rate_hz));
   out.setTicks(s.ticks);
   out.setOverruns(s.overruns);
   set_quantiles(out.initJitterUs(), s.jitter_us);
   auto stages = out.initStageUs(static_cast<unsigned>(s.stage_us.size()));
   for (unsigned i = 0; i < stages.size(); ++i) {
-    stages[i].setStage(loop::stage_name(static_cast<loop::Stage>(i)));
+    stages[i].setStage(simloop::stage_name(static_cast<simloop::Stage>(i)));
     set_quantiles(stages[i].initUs(), s.stage_us[i]);
   }
   out.setVerticesTotal(s.vertices_total);
@@ -254,15 +254,15 @@ void fill_history(proto::History::Builder out, const History& history, std::size
   out.setNewer(history.newer);
 }
 
-loop::StatsSnapshot stats_from(proto::Stats::Reader in) {
-  loop::StatsSnapshot s;
+simloop::StatsReading stats_from(proto::Stats::Reader in) {
+  simloop::StatsReading s;
   s.rate_hz = in.getRateHz();
   s.ticks = in.getTicks();
   s.overruns = in.getOverruns();
   s.jitter_us = percentiles(in.getJitterUs());
   for (const auto st : in.getStageUs())
-    for (int i = 0; i < static_cast<int>(loop::Stage::count); ++i)
-      if (std::string_view(st.getStage().cStr()) == loop::stage_name(static_cast<loop::Stage>(i)))
+    for (int i = 0; i < static_cast<int>(simloop::Stage::count); ++i)
+      if (std::string_view(st.getStage().cStr()) == simloop::stage_name(static_cast<simloop::Stage>(i)))
         s.stage_us[static_cast<std::size_t>(i)] = percentiles(st.getUs());
   s.vertices_total = in.getVerticesTotal();
   s.vertices_awake = in.getVerticesAwake();

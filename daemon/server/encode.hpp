@@ -24,6 +24,6 @@ void set_bounds(proto::Aabb::Builder out, const std::array<float, 6>& lo_hi);
 void fill_history(proto::History::Builder out, const History& history, std::size_t max_entries);
 
 // Reads a proto::Stats back into the stats JSON's snapshot (sculptctl status --json).
-loop::StatsSnapshot stats_from(proto::Stats::Reader stats);
+simloop::StatsReading stats_from(proto::Stats::Reader stats);
 
 }  // namespace sculpt::server

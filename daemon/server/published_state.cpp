@@ -62,7 +62,7 @@ void PublishedState::publish(std::uint64_t tick, const sim::World<float>& world,
   h.published_ns = now_ns;
   h.awake_vertices = world.stats().awake_vertices;
   const auto feedback = world.feedback();
-  h.tool_count = static_cast<std::uint32_t>(std::min(tools.size(), kMaxTools));
+  h.tool_count = static_cast<std::uint32_t>(std::min(tools.size(), sim::kMaxTools));
   for (std::size_t t = 0; t < h.tool_count; ++t) {
     const sim::Tool& in = tools[t];
     PublishedTool& o = h.tools[t];

@@ -19,6 +19,7 @@
 #include <span>
 #include <vector>
 
+#include "sim/limits.hpp"
 #include "concurrency/seqlock.hpp"
 #include "sim/tool.hpp"
 #include "sim/world.hpp"
@@ -26,7 +27,6 @@
 namespace sculpt::server {
 
 inline constexpr std::uint32_t kBlock = 64;     // vertices per published block
-inline constexpr std::size_t kMaxTools = 8;     // = input::kMaxTools
 
 struct PublishedTool {
   bool active = false;
@@ -42,7 +42,7 @@ struct PublishedHeader {
   std::int64_t published_ns = 0;       // CLOCK_MONOTONIC at publish
   std::uint32_t awake_vertices = 0;
   std::uint32_t tool_count = 0;
-  std::array<PublishedTool, kMaxTools> tools{};
+  std::array<PublishedTool, sim::kMaxTools> tools{};
 };
 
 class PublishedState {

@@ -28,8 +28,8 @@ void for_each_piece(B& b, std::uint32_t overflow_slots, std::uint32_t blk, F&& p
   auto rows = [&](auto* p, std::size_t per_vertex) {
     piece(p + per_vertex * b0, per_vertex * count * sizeof(*p), per_vertex * kBlock * sizeof(*p));
   };
-  one(b.block[blk]);  // first: the recorder patches it in place (edit_capture.cpp)
-  one(b.snapshot_grid[blk]);
+  one(b.block[blk]);  // first: the recorder patches it in place (stroke_recorder.cpp)
+  one(b.checkpoint_grid[blk]);
   for (auto* a : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz}) rows(a->data(), 1);
   if (b.plastic)
     for (auto* a : {&b.rx, &b.ry, &b.rz, &b.srx, &b.sry, &b.srz}) rows(a->data(), 1);
@@ -107,7 +107,7 @@ void write_block_image(const Body<S>& b, const BlockImageLayout& layout, std::ui
 }
 
 template <class S>
-void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image) {
+void exchange_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image) {
   const BlockState<S> before = b.block[blk];
   for_each_piece<S>(b, layout.overflow_slots, blk, [&](auto* p, std::size_t bytes, std::size_t slot) {
     swap_bytes(reinterpret_cast<std::byte*>(p), image, bytes);
@@ -154,7 +154,7 @@ std::string block_image_error(const Body<S>& b, const BlockImageLayout& layout, 
       if (s.quiet_ticks < 0 || s.quiet_ticks > bounds.sleep_ticks) return fail("its quiet ticks are out of range");
       state = s;
       awake = std::to_integer<unsigned>(at[offsetof(T, awake)]) != 0;
-    } else if constexpr (std::is_same_v<T, SnapshotGrid<S>>) {
+    } else if constexpr (std::is_same_v<T, CheckpointGrid<S>>) {
       T g;
       std::memcpy(&g, at, sizeof g);
       for (int k = 0; k < 3; ++k)
@@ -200,7 +200,7 @@ template BlockImageLayout block_image_layout(const Body<float>&);
 template BlockImageLayout block_image_layout(const Body<double>&);
 template void write_block_image(const Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
 template void write_block_image(const Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
-template void swap_block_state(Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
-template void swap_block_state(Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
+template void exchange_block_state(Body<float>&, const BlockImageLayout&, std::uint32_t, std::byte*);
+template void exchange_block_state(Body<double>&, const BlockImageLayout&, std::uint32_t, std::byte*);
 
 }  // namespace sculpt::sim

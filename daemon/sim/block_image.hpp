@@ -2,14 +2,14 @@
 // of a body and can change, in a fixed order and a size that is the same for
 // every block of the body (a short last block is padded with zeros):
 //
-//   BlockState, SnapshotGrid                          (the block)
+//   BlockState, CheckpointGrid                          (the block)
 //   x y z, wx wy wz                                    kBlock each
 //   clay: rx ry rz, srx sry srz                        kBlock each
 //   ax ay az (bodies on the arrays path)               kBlock each
 //   clay, spring model: rest_length, slen              kBlock per ELL column each
 //   clay: the rest lengths of the block's overflow     padded to the body's most per block
 //   packed records, the current buffer then the other  8·kBlock each (bodies that have them)
-//   sx sy sz (the guard's 16-bit snapshot)             kBlock each
+//   sx sy sz (the guard's 16-bit checkpoint)             kBlock each
 //
 // Left out: what never changes (the network, and the rest shape of elastic
 // bodies), and the ring stamps, a clock like the body's ring_epoch: a stamp
@@ -45,7 +45,7 @@ void write_block_image(const Body<S>& b, const BlockImageLayout& layout, std::ui
 // of awake blocks and the body's box (bit for bit what update_box gives).
 // Allocates nothing.
 template <class S>
-void swap_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image);
+void exchange_block_state(Body<S>& b, const BlockImageLayout& layout, std::uint32_t blk, std::byte* image);
 
 // What an image from outside (a stroke read back from a store) must be
 // before it is swapped in, value by value as World::restore_state holds a

@@ -8,7 +8,7 @@
 #include <limits>
 
 #include "sim/body.hpp"
-#include "sim/edit_hook.hpp"
+#include "sim/stroke_hook.hpp"
 
 namespace sculpt::sim {
 

@@ -105,7 +105,7 @@ std::size_t bytes_of(const BodyBlocks<S>& bl) {
 
 template <class S>
 std::size_t bytes_of(const BodyGuard<S>& g) {
-  return g.sx.bytes() + g.sy.bytes() + g.sz.bytes() + g.snapshot_grid.capacity() * sizeof(SnapshotGrid<S>) +
+  return g.sx.bytes() + g.sy.bytes() + g.sz.bytes() + g.checkpoint_grid.capacity() * sizeof(CheckpointGrid<S>) +
          g.srx.bytes() + g.sry.bytes() + g.srz.bytes() + g.slen.bytes();
 }
 
@@ -128,7 +128,7 @@ bool Body<S>::save_positions(std::uint32_t blk) {
   for (int a = 0; a < 3; ++a)
     for (std::uint32_t i = b0; i < b1; ++i)
       if (!std::isfinite(src[a][i])) return false;
-  SnapshotGrid<S> g;
+  CheckpointGrid<S> g;
   for (int a = 0; a < 3; ++a) {
     S lo = src[a][b0], hi = lo;
     for (std::uint32_t i = b0; i < b1; ++i) lo = std::min(lo, src[a][i]), hi = std::max(hi, src[a][i]);
@@ -142,14 +142,14 @@ bool Body<S>::save_positions(std::uint32_t blk) {
     for (std::uint32_t i = b0; i < b1; ++i)
       dst[a][i] = static_cast<std::uint16_t>(std::min(S(65535), (src[a][i] - lo) * to_grid + S(0.5)));
   }
-  guard.snapshot_grid[blk] = g;
+  guard.checkpoint_grid[blk] = g;
   return true;
 }
 
 template <class S>
 std::array<S, 3> Body<S>::saved_position(std::uint32_t i) const {
   const BodyGuard<S>& guard = *this;
-  const SnapshotGrid<S>& g = guard.snapshot_grid[i / kBlock];
+  const CheckpointGrid<S>& g = guard.checkpoint_grid[i / kBlock];
   return {g.lo[0] + S(guard.sx[i]) * g.step[0], g.lo[1] + S(guard.sy[i]) * g.step[1],
           g.lo[2] + S(guard.sz[i]) * g.step[2]};
 }
@@ -188,7 +188,7 @@ void reserve_arena(Body<S>& b) {
                                   + 3     // clay: srx..srz
                                   + 2 * kMaxColumns  // rest_length, clay: slen
                                   + 16;   // two packed records
-  constexpr std::size_t shorts = 3 + kMaxColumns;  // snapshot sx..sz, nbr
+  constexpr std::size_t shorts = 3 + kMaxColumns;  // checkpoint sx..sz, nbr
   b.arena = PageArena(std::size_t{b.n} * (scalars * sizeof(S) + shorts * 2) + 32 * AlignedBuffer<S>::kAlignment);
 }
 
@@ -224,13 +224,13 @@ void order_vertices(Body<S>& b, const TriangleMesh& mesh) {
 }
 
 // Positions and rest shape in internal order, at rest, and the guard's first
-// snapshot. ax..az: World::add_body decides (only velocity Verlet and clay keep them).
+// checkpoint. ax..az: World::add_body decides (only velocity Verlet and clay keep them).
 template <class S>
 void place_at_rest(Body<S>& b, const TriangleMesh& mesh) {
   const std::uint32_t n = b.n;
   for (auto* buf : {&b.x, &b.y, &b.z, &b.wx, &b.wy, &b.wz, &b.rx, &b.ry, &b.rz}) buf->resize(n, S(0), &b.arena);
   for (auto* buf : {&b.sx, &b.sy, &b.sz}) buf->resize(n, 0, &b.arena);
-  b.snapshot_grid.resize(b.blocks);
+  b.checkpoint_grid.resize(b.blocks);
   for (std::uint32_t i = 0; i < n; ++i) {  // at rest: no step, no velocity (w = 0 for every integrator)
     const Vec3f& p = mesh.positions[b.to_original[i]];
     b.x[i] = b.rx[i] = static_cast<S>(p[0]);

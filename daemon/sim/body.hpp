@@ -18,7 +18,7 @@
 namespace sculpt::sim {
 
 template <class S>
-class EditRecorder;  // sim/edit_capture.hpp
+class StrokeRecorder;  // sim/stroke_recorder.hpp
 
 // The double buffer of packed neighbour records (float only, 64 bytes per
 // vertex): by_size gives it to clay bodies up to 65 536 vertices; elastic
@@ -69,13 +69,13 @@ struct BlockState {
   bool awake = false;
   bool touched = false;   // a tool box reached it this tick (or it holds a grabbed vertex)
   bool changed = false;   // integrated or pushed this tick
-  bool dirty = false;     // changed since the last good-state snapshot
+  bool dirty = false;     // changed since the last good-state checkpoint
   bool accel_current = false;  // ax..az hold the forces of the present state (velocity Verlet's opening kick needs them)
   bool grabbed = false;   // holds a grabbed vertex (set and cleared within one substep of step_body)
 };
 
 template <class S>
-struct SnapshotGrid {
+struct CheckpointGrid {
   std::array<S, 3> lo{}, step{};  // coordinate = lo + q · step, q in [0, 65535]
 };
 
@@ -188,21 +188,21 @@ struct BodyBlocks {
   std::uint32_t awake_blocks = 0;         // blocks awake now
   std::array<S, 3> lo{}, hi{};            // union of block boxes (grown), for the mesh-level broadphase
   std::vector<ToolContact<S>> tools;      // one per tool slot of the world
-  // Edits (sim/edit_capture.hpp): World's recorder of this body's edits, and
+  // Strokes (sim/stroke_recorder.hpp): World's recorder of this body's strokes, and
   // per block whether it may change without a capture first; null while no
-  // edit records (then will_change, sim/edit_hook.hpp, is one test).
-  EditRecorder<S>* edits = nullptr;
-  const std::uint8_t* edit_done = nullptr;
+  // stroke records (then will_change, sim/stroke_hook.hpp, is one test).
+  StrokeRecorder<S>* strokes = nullptr;
+  const std::uint8_t* stroke_done = nullptr;
 };
 
 // The blow-up guard: the last good state and the energy bookkeeping.
 template <class S>
 struct BodyGuard {
   // Last good positions, 16 bits per coordinate on a grid over the block's
-  // box at the snapshot: a restore lands within 1/131070 of that box of the
+  // box at the checkpoint: a restore lands within 1/131070 of that box of the
   // saved state, in half the bytes of a copy.
   AlignedBuffer<std::uint16_t> sx, sy, sz;
-  std::vector<SnapshotGrid<S>> snapshot_grid;  // per block
+  std::vector<CheckpointGrid<S>> checkpoint_grid;  // per block
   AlignedBuffer<S> srx, sry, srz, slen;        // clay only: last good rest shape
   double energy = 0;        // last measured total energy, J
   double energy_ref = 0;    // the most energy tool input has put in since the mesh last slept
@@ -210,7 +210,7 @@ struct BodyGuard {
   double speed_limit = 0;   // m/s: a vertex faster than this is divergence (set by World)
   std::uint64_t blowups = 0;
   int boost = 1;            // substep multiplier after a blow-up
-  int snapshot_age = 0;
+  int checkpoint_age = 0;
   bool external_input = false;  // set_state() touched it since the last tick
 };
 
@@ -224,8 +224,8 @@ struct Body : BodyMemory, BodyNetwork<S>, BodyState<S>, BodyRecords<S>, BodyBloc
   // packed records (float bodies that have them). Material constants and
   // outputs are the caller's.
   kernel::ForceArgs<S> network_args() const;
-  // The guard's snapshot: save block blk's positions (false, keeping the
-  // older snapshot, if any is not finite); the saved position of vertex i.
+  // The guard's checkpoint: save block blk's positions (false, keeping the
+  // older checkpoint, if any is not finite); the saved position of vertex i.
   bool save_positions(std::uint32_t blk);
   std::array<S, 3> saved_position(std::uint32_t i) const;
 };

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "sim/edit_hook.hpp"
+#include "sim/stroke_hook.hpp"
 
 namespace sculpt::sim {
 

@@ -8,11 +8,11 @@
 namespace sculpt::sim {
 
 template <class S>
-void snapshot_block(Body<S>& b, std::uint32_t blk) {
+void checkpoint_block(Body<S>& b, std::uint32_t blk) {
   will_change(b, blk);
   const std::uint32_t b0 = b.begin_of(blk), b1 = b.end_of(blk);
   // Positions and clay rest shape from the same tick, or neither: a block
-  // that is not finite keeps its older snapshot whole (and stays dirty).
+  // that is not finite keeps its older checkpoint whole (and stays dirty).
   if (!b.save_positions(blk)) return;
   if (b.plastic) {
     std::copy(b.rx.data() + b0, b.rx.data() + b1, b.srx.data() + b0);
@@ -71,11 +71,11 @@ void sleep_block(Body<S>& b, std::uint32_t blk) {
   s.quiet_ticks = 0;
   --b.awake_blocks;
   refit_block(b, blk);
-  snapshot_block(b, blk);
+  checkpoint_block(b, blk);
 }
 
-template void snapshot_block(Body<float>&, std::uint32_t);
-template void snapshot_block(Body<double>&, std::uint32_t);
+template void checkpoint_block(Body<float>&, std::uint32_t);
+template void checkpoint_block(Body<double>&, std::uint32_t);
 template void restore_body(Body<float>&);
 template void restore_body(Body<double>&);
 template void sleep_block(Body<float>&, std::uint32_t);

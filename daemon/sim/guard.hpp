@@ -1,6 +1,6 @@
-// The blow-up guard's state changes on one body: snapshots of good blocks,
+// The blow-up guard's state changes on one body: checkpoints of good blocks,
 // restoring the last good state, and putting quiet blocks to sleep (which
-// snapshots them too). World decides when; these do it.
+// checkpoints them too). World decides when; these do it.
 #pragma once
 
 #include <cstdint>
@@ -12,14 +12,14 @@ namespace sculpt::sim {
 // Save block blk as the last good state (positions, and clay's rest shape
 // from the same tick), unless a position is not finite.
 template <class S>
-void snapshot_block(Body<S>& b, std::uint32_t blk);
+void checkpoint_block(Body<S>& b, std::uint32_t blk);
 
 // Every vertex back to its last good state, at rest; every block awake and
 // changed, and no grab held.
 template <class S>
 void restore_body(Body<S>& b);
 
-// At rest: no velocity, no acceleration, a fresh box and snapshot.
+// At rest: no velocity, no acceleration, a fresh box and checkpoint.
 template <class S>
 void sleep_block(Body<S>& b, std::uint32_t blk);
 

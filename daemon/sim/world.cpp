@@ -25,7 +25,7 @@ namespace {
 
 using kernel::kBlock;
 
-constexpr int kSnapshotInterval = 32;  // ticks between good-state snapshots of moving blocks
+constexpr int kCheckpointInterval = 32;  // ticks between good-state checkpoints of moving blocks
 constexpr double kEnergyGrowth = 4.0;  // energy may fluctuate (Verlet's measured energy wobbles) but not 4×
 
 bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
@@ -97,9 +97,9 @@ std::uint32_t World<S>::add_body(const TriangleMesh& mesh, const Material& mater
   narrow_.reserve(b.n, b.blocks);
   if (b.plastic) yield_masks_.resize(std::max(yield_masks_.size(), clay_mask_bytes(b) * b.blocks));
   changes_.resize(changes_.size() + b.blocks);
-  edits_.push_back(std::make_unique<EditRecorder<S>>(static_cast<std::uint32_t>(bodies_.size()), b));
-  edits_.back()->set_sink(edit_sink_);
-  b.edits = edits_.back().get();
+  recorders_.push_back(std::make_unique<StrokeRecorder<S>>(static_cast<std::uint32_t>(bodies_.size()), b));
+  recorders_.back()->set_sink(stroke_sink_);
+  b.strokes = recorders_.back().get();
   steppers_.push_back(make_stepper<S>(path));
   paths_.push_back(path);
   base_substeps_.push_back(choice.substeps);
@@ -202,10 +202,10 @@ void World<S>::report_tools() {
 template <class S>
 void World<S>::step_body(std::uint32_t bi) {
   Body<S>& b = bodies_[bi];
-  EditRecorder<S>& edits = *edits_[bi];
+  StrokeRecorder<S>& edits = *recorders_[bi];
   find_contacts(bi);
   if (b.awake_blocks == 0) {  // the whole mesh sleeps: it costs this much
-    if (edits.swapped_any()) log_changes(bi);  // blocks a swap changed while it slept
+    if (edits.exchanged_any()) log_changes(bi);  // blocks a swap changed while it slept
     edits.end_tick(b, tick_);
     return;
   }
@@ -229,14 +229,14 @@ void World<S>::step_body(std::uint32_t bi) {
   edits.end_tick(b, tick_);
 }
 
-// The broadphase, which also tells whether an edit of the body opens or is released.
+// The broadphase, which also tells whether a stroke of the body opens or is released.
 template <class S>
 void World<S>::find_contacts(std::uint32_t bi) {
   Body<S>& b = bodies_[bi];
   const std::uint64_t c0 = stage_clock_ ? stage_clock_() : 0;
-  edits_[bi]->begin_broadphase(b);
+  recorders_[bi]->begin_broadphase(b);
   for (std::uint32_t t = 0; t < tool_slots_; ++t) stats_.candidate_blocks += find_candidates(b, t, tracks_[t]);
-  edits_[bi]->end_broadphase(b, tick_);
+  recorders_[bi]->end_broadphase(b, tick_);
   if (stage_clock_) collision_ns_ += stage_clock_() - c0;
 }
 
@@ -307,7 +307,7 @@ void World<S>::judge(std::uint32_t bi, bool finite) {
   Body<S>& b = bodies_[bi];
   double energy = 0;
   for (const BlockState<S>& s : b.block) energy += s.energy;
-  const bool swapped = edits_[bi]->take_swap_input();  // energy a swap brought is input too
+  const bool swapped = recorders_[bi]->take_exchange_input();  // energy a swap brought is input too
   bool input = b.external_input || swapped;
   b.external_input = false;
   for (std::uint32_t t = 0; t < tool_slots_; ++t)
@@ -358,10 +358,10 @@ void World<S>::settle(Body<S>& b, double energy) {
       sleep_block(b, blk);
     }
   }
-  if (++b.snapshot_age >= kSnapshotInterval && energy <= 2.0 * b.energy_ref + b.energy_floor) {
-    b.snapshot_age = 0;
+  if (++b.checkpoint_age >= kCheckpointInterval && energy <= 2.0 * b.energy_ref + b.energy_floor) {
+    b.checkpoint_age = 0;
     for (std::uint32_t blk = 0; blk < b.blocks; ++blk)
-      if (b.block[blk].dirty && b.block[blk].awake) snapshot_block(b, blk);
+      if (b.block[blk].dirty && b.block[blk].awake) checkpoint_block(b, blk);
   }
   if (b.awake_blocks == 0) b.energy_ref = std::max(0.0, energy);
   update_box(b);
@@ -371,7 +371,7 @@ void World<S>::settle(Body<S>& b, double energy) {
 template <class S>
 void World<S>::log_changes(std::uint32_t bi) {
   Body<S>& b = bodies_[bi];
-  edits_[bi]->mark_swapped(b);
+  recorders_[bi]->mark_exchanged(b);
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
     BlockState<S>& s = b.block[blk];
     if (s.changed) {
@@ -409,7 +409,7 @@ void World<S>::set_state(std::size_t bi, std::uint32_t original, const Vec3d& p,
   if (original >= b.n) throw std::out_of_range("set_state: vertex " + std::to_string(original) + " does not exist");
   const std::uint32_t k = b.to_internal[original];
   const double dts = 1.0 / settings_.rate_hz / substeps(bi);
-  will_change(b, k / kBlock);  // an open edit holds scripted changes too
+  will_change(b, k / kBlock);  // an open stroke holds scripted changes too
   for (std::uint32_t e = b.block_neighbour_begin[k / kBlock]; e < b.block_neighbour_begin[k / kBlock + 1]; ++e)
     will_change(b, b.block_neighbours[e]);
   b.x[k] = static_cast<S>(p[0]), b.y[k] = static_cast<S>(p[1]), b.z[k] = static_cast<S>(p[2]);
@@ -455,7 +455,7 @@ std::size_t World<S>::bytes() const {
   std::size_t total = sizeof(*this) + changes_.capacity() * sizeof(ChangeRange) + potential_.capacity() * 8 +
                       scratch_.bytes() + ring_.bytes() + yield_masks_.capacity() + narrow_.bytes();
   for (const Body<S>& b : bodies_) total += b.bytes();
-  for (const auto& e : edits_) total += e->bytes();
+  for (const auto& e : recorders_) total += e->bytes();
   return total;
 }
 

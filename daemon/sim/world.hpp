@@ -18,8 +18,8 @@
 
 #include "sim/body.hpp"
 #include "sim/contact.hpp"
-#include "sim/edit_capture.hpp"
-#include "sim/edits.hpp"
+#include "sim/stroke_recorder.hpp"
+#include "sim/strokes.hpp"
 #include "sim/grab.hpp"
 #include "sim/stepper.hpp"
 #include "sim/tool_track.hpp"
@@ -116,34 +116,34 @@ class World {
   // (an index out of range, a value not finite or beyond any world, a
   // network or rest shape that is not the scene's), leaving the world as it
   // was: the bytes are untrusted input. Between ticks only. Restoring closes
-  // the open edits.
+  // the open strokes.
   std::vector<std::byte> state() const;
   void restore_state(std::span<const std::byte> bytes);
 
-  // Edits (sim/edits.hpp, docs/simulation.md): with a sink, the world tells
-  // it each body's edits and hands it the image of every block an open edit
+  // Strokes (sim/strokes.hpp, docs/simulation.md): with a sink, the world tells
+  // it each body's strokes and hands it the image of every block an open stroke
   // is about to change. nullptr (the default): nothing is recorded, and it
   // costs a branch. Either way the same scene and inputs give the same bits.
-  // Setup or between ticks; closes the open edits first (to the old sink).
-  void set_edit_sink(EditSink* sink);
-  // Closes every open edit now (last_tick: tick()), between ticks: before an
+  // Setup or between ticks; closes the open strokes first (to the old sink).
+  void set_stroke_sink(StrokeSink* sink);
+  // Closes every open stroke now (last_tick: tick()), between ticks: before an
   // undo or redo, or a scene swap. A tool still near opens a new one next tick.
-  void close_edits();
+  void close_strokes();
   // A block's image (block_image.hpp): the same size for every block of a
   // body (0 for a body without vertices). Throws std::invalid_argument on a
   // body or block that does not exist, or an `out` of another size.
   std::size_t block_image_bytes(std::uint32_t body) const;
   void block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> out) const;
   // Exchanges block `block` of `body` with `image` (one from block_image or
-  // EditSink::captured of the same block of a world of the same scene): the
+  // StrokeSink::captured of the same block of a world of the same scene): the
   // world takes the image, the image takes what the world had; swapping again
   // gives both back. The next step lists the block in changes(), even if it
   // sleeps. Between ticks, allocation-free (the real-time thread undoes).
   // Throws std::invalid_argument, changing nothing, on a body or block that
-  // does not exist, an image of another size, or a body with an open edit
-  // (close_edits() first).
-  void swap_block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> image);
-  // swap_block_image trusts the image's values (it is the real-time
+  // does not exist, an image of another size, or a body with an open stroke
+  // (close_strokes() first).
+  void exchange_block_image(std::uint32_t body, std::uint32_t block, std::span<std::byte> image);
+  // exchange_block_image trusts the image's values (it is the real-time
   // thread's); one from outside (a stroke read back from a store) is checked
   // here first: "" when body, block and size fit and every value is one the
   // block can hold (sim/block_image.hpp), else what is wrong.
@@ -173,8 +173,8 @@ class World {
   std::vector<StepPath> paths_;                       // per body, chosen in add_body
   std::vector<std::unique_ptr<Stepper<S>>> steppers_;  // per body
   std::vector<int> base_substeps_;
-  std::vector<std::unique_ptr<EditRecorder<S>>> edits_;  // per body
-  EditSink* edit_sink_ = nullptr;
+  std::vector<std::unique_ptr<StrokeRecorder<S>>> recorders_;  // per body
+  StrokeSink* stroke_sink_ = nullptr;
   std::vector<ToolTrack<S>> tracks_;
   std::vector<ToolFeedback> feedback_;
   std::vector<ChangeRange> changes_;

@@ -95,11 +95,11 @@ void body_state(Io& io, B& b) {
     else
       read_grabs(io, tc, b.n);
   }
-  arr(b.sx, "snapshot"), arr(b.sy, "snapshot"), arr(b.sz, "snapshot"), arr(b.snapshot_grid, "snapshot grid");
-  arr(b.srx, "snapshot rest shape"), arr(b.sry, "snapshot rest shape"), arr(b.srz, "snapshot rest shape");
-  arr(b.slen, "snapshot rest lengths");
+  arr(b.sx, "checkpoint"), arr(b.sy, "checkpoint"), arr(b.sz, "checkpoint"), arr(b.checkpoint_grid, "checkpoint grid");
+  arr(b.srx, "checkpoint rest shape"), arr(b.sry, "checkpoint rest shape"), arr(b.srz, "checkpoint rest shape");
+  arr(b.slen, "checkpoint rest lengths");
   val(b.energy, "energy"), val(b.energy_ref, "energy"), val(b.blowups, "blow-ups"), val(b.boost, "substep boost");
-  val(b.snapshot_age, "snapshot age"), val(b.external_input, "input flag");
+  val(b.checkpoint_age, "checkpoint age"), val(b.external_input, "input flag");
 }
 
 // The checks of a state's values (World::check_state), each naming what
@@ -294,9 +294,9 @@ void World<S>::check_state(const StateView& view) const {
       for (S x : v)
         if (!std::isfinite(x)) c.fail("its box is not finite");
     }
-    const auto grid = c.array(b.snapshot_grid);
+    const auto grid = c.array(b.checkpoint_grid);
     for (std::size_t k = 0; k < grid.size(); ++k) {
-      const SnapshotGrid<S> g = grid[k];
+      const CheckpointGrid<S> g = grid[k];
       for (int a = 0; a < 3; ++a)
         if (!std::isfinite(g.lo[a]) || std::abs(g.lo[a]) > S(bound) || !std::isfinite(g.step[a]) || g.step[a] < 0 ||
             g.step[a] > S(bound))
@@ -307,7 +307,7 @@ void World<S>::check_state(const StateView& view) const {
     const double energy = c.value(b.energy), energy_ref = c.value(b.energy_ref);
     if (!std::isfinite(energy) || !std::isfinite(energy_ref))
       c.fail("its energy is " + StateCheck<S>::num(energy) + " (reference " + StateCheck<S>::num(energy_ref) + ")");
-    if (c.value(b.snapshot_age) < 0) c.fail("the guard's snapshot age is negative");
+    if (c.value(b.checkpoint_age) < 0) c.fail("the guard's checkpoint age is negative");
     c.flag(view.bytes_of(&b.external_input), 0, "the input flag");
   }
   const auto tracks = view.array(tracks_);
@@ -362,8 +362,8 @@ void World<S>::restore_state(std::span<const std::byte> bytes) {
   check.note_to(&view);
   read_state(check);
   check_state(view);  // the values, before any of them is written
-  close_edits();  // their images are of the state being replaced
-  for (auto& e : edits_) e->forget_swaps();
+  close_strokes();  // their images are of the state being replaced
+  for (auto& e : recorders_) e->forget_exchanges();
   StateReader r(bytes, /*dry=*/false);
   read_state(r);
   for (Body<S>& b : bodies_) {

@@ -288,7 +288,7 @@ class Store {
   void write_journal(std::span<const RecordView> records);
   void written();
   void insert_snapshot(const PreparedSnapshot& s);
-  void checkpoint();
+  void wal_checkpoint();
   std::optional<StoredSnapshot> describe(std::int64_t id, std::uint64_t tick, std::string& why);
   void load_journal(std::int64_t after, Recovery& out);
   void report_gaps(std::int64_t after, Recovery& out);

@@ -12,8 +12,8 @@
 #include <map>
 #include <thread>
 
-#include "main/journal_codec.hpp"
-#include "main/keeper.hpp"
+#include "keeper/journal_codec.hpp"
+#include "keeper/keeper.hpp"
 #include "store/codec.hpp"
 #include "store/store.hpp"
 #include "store_fuzz_base.hpp"

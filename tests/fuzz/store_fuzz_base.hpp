@@ -28,9 +28,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "main/history.hpp"
-#include "main/replica.hpp"
-#include "main/scene_bundle.hpp"
+#include "keeper/history.hpp"
+#include "keeper/replica.hpp"
+#include "keeper/scene_bundle.hpp"
 #include "sim/state_bytes.hpp"
 
 namespace sculpt::fuzz {
@@ -64,7 +64,7 @@ inline std::shared_ptr<daemon::SceneBundle> tiny_bundle() {
   return b;
 }
 
-// A stroke as the keeper stores it (main/keeper_store.cpp).
+// A stroke as the keeper stores it (keeper/snapshots.cpp).
 inline std::vector<std::byte> stroke_bytes(const daemon::Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);

@@ -16,9 +16,9 @@
 #include <optional>
 #include <algorithm>
 
-#include "main/journal_codec.hpp"
-#include "main/keeper.hpp"
-#include "main/log.hpp"
+#include "keeper/journal_codec.hpp"
+#include "keeper/keeper.hpp"
+#include "log/log.hpp"
 #include "store/codec.hpp"
 #include "store/store.hpp"
 #include "store_fuzz_base.hpp"
@@ -217,8 +217,8 @@ void block_image(Input& in) {
   w.block_image(real_body, real_block, image);
   patch(image, in);
   if (!w.block_image_error(body, block, image).empty()) return;
-  w.close_edits();
-  w.swap_block_image(body, block, image);
+  w.close_strokes();
+  w.exchange_block_image(body, block, image);
   b.replica->advance_to(b.replica->next_tick() + 2);
 }
 

@@ -15,10 +15,10 @@
 #include "haptics/feedback_board.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
-#include "loop/scene_tools.hpp"
-#include "main/journal.hpp"
-#include "main/scene_bundle.hpp"
-#include "main/simulation.hpp"
+#include "simloop/scene_tools.hpp"
+#include "keeper/journal.hpp"
+#include "keeper/scene_bundle.hpp"
+#include "host/simulation.hpp"
 
 namespace sculpt::daemon::testing {
 
@@ -28,10 +28,10 @@ class Rig {
   explicit Rig(JournalTap* tap, const std::string& session, std::span<const std::byte> state = {},
                std::shared_ptr<SceneBundle> bundle = nullptr)
       : bundle_(bundle ? std::move(bundle)
-                       : std::make_shared<SceneBundle>(read_bundle("builtin:default", SimulationSettings{}))),
-        board_(static_cast<int>(input::kMaxTools)),
+                       : std::make_shared<SceneBundle>(read_bundle("builtin:default", simloop::SimulationSettings{}))),
+        board_(static_cast<int>(sim::kMaxTools)),
         sim_(build_simulation(load_bundle(*bundle_), bundle_->settings, board_, state)),
-        router_(loop::tool_routes(sim_.scene)),
+        router_(simloop::tool_routes(sim_.scene)),
         tools_(sim_.tools) {
     for (auto& t : tools_) t.active = false;
     if (tap) sim_.stages->set_journal(tap, sim_.world.get());

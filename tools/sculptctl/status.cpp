@@ -1,6 +1,6 @@
 // `sculptctl status [--json]` and `sculptctl devices [--json]`: what a running
 // sculptd says about itself. status --json prints exactly the keys of
-// `sculptd --stats-json` (loop/stats_json.hpp builds both).
+// `sculptd --stats-json` (simloop/stats_json.hpp builds both).
 #include <cstdio>
 #include <iostream>
 
@@ -9,29 +9,29 @@
 
 #include "commands.hpp"
 #include "daemon_link.hpp"
-#include "loop/stats_json.hpp"
+#include "simloop/stats_json.hpp"
 #include "server/encode.hpp"
 
 namespace sculpt::ctl {
 namespace {
 
-std::string quantiles(const loop::Percentiles& p) {
+std::string quantiles(const simloop::Percentiles& p) {
   return fmt::format("p50 {:.1f}  p99 {:.1f}  max {:.1f} us", p.p50, p.p99, p.max);
 }
 
 void print_status(proto::Stats::Reader st, const std::string& server, const std::string& socket) {
-  const loop::StatsSnapshot s = server::stats_from(st);
+  const simloop::StatsReading s = server::stats_from(st);
   fmt::print("{} on {}: {}\n", server, socket, st.getPaused() ? "paused" : "running");
   fmt::print("  scene       {}\n", st.getScene().cStr());
   fmt::print("  uptime      {:.1f} s, simulated {:.3f} s\n", st.getUptimeS(), static_cast<double>(st.getSimTimeNs()) * 1e-9);
   fmt::print("  rate        {:g} Hz, {} ticks, {} overruns\n", s.rate_hz, s.ticks, s.overruns);
   if (s.overruns != 0)
     fmt::print("  overruns by late wake {}, long step {} ({} of them off the CPU)\n",
-               s.overrun_causes[static_cast<std::size_t>(loop::OverrunCause::late_wake)],
-               s.overrun_causes[static_cast<std::size_t>(loop::OverrunCause::long_step)], s.long_steps_off_cpu);
+               s.overrun_causes[static_cast<std::size_t>(simloop::OverrunCause::late_wake)],
+               s.overrun_causes[static_cast<std::size_t>(simloop::OverrunCause::long_step)], s.long_steps_off_cpu);
   fmt::print("  jitter      {}\n", quantiles(s.jitter_us));
-  for (int i = 0; i < static_cast<int>(loop::Stage::count); ++i)
-    fmt::print("  {:<11} {}\n", loop::stage_name(static_cast<loop::Stage>(i)), quantiles(s.stage_us[static_cast<std::size_t>(i)]));
+  for (int i = 0; i < static_cast<int>(simloop::Stage::count); ++i)
+    fmt::print("  {:<11} {}\n", simloop::stage_name(static_cast<simloop::Stage>(i)), quantiles(s.stage_us[static_cast<std::size_t>(i)]));
   fmt::print("  vertices    {} awake of {}\n", s.vertices_awake, s.vertices_total);
   fmt::print("  viewers     {}, {} bytes sent\n", s.viewers, s.bytes_sent);
   fmt::print("  devices     {}, {} FF uploads\n", s.devices, s.ff_uploads);
@@ -52,7 +52,7 @@ void status(const DaemonArgs& args) {
   with_daemon(args, [&](client::Connection& c, kj::WaitScope& ws) {
     auto reply = c.session().statusRequest().send().wait(ws);
     const auto st = reply.getStats();
-    if (args.json) std::cout << loop::stats_json(server::stats_from(st)).dump(2) << "\n";
+    if (args.json) std::cout << simloop::stats_json(server::stats_from(st)).dump(2) << "\n";
     else print_status(st, c.server(), c.socket_path());
   });
 }

@@ -10,7 +10,7 @@
 
 #include "sim/baseline.hpp"
 #include "sim/body.hpp"
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/kernels.hpp"
 #include "sim/shapes.hpp"
@@ -192,17 +192,17 @@ void BM_StepIdle(benchmark::State& state) {
 BENCHMARK(BM_StepIdle)->Unit(benchmark::kNanosecond);
 
 // Keeps the images of body 0's edits (the latest edit's, once it closes).
-class KeepImages : public EditSink {
+class KeepImages : public StrokeSink {
  public:
   void opened(std::uint32_t, std::uint64_t) override { blocks.clear(), images.clear(), open = true; }
   void captured(std::uint32_t, std::uint32_t block, std::span<const std::byte> image) override {
     blocks.push_back(block);
     images.emplace_back(image.begin(), image.end());
   }
-  void closed(std::uint32_t, const EditSummary& e) override { open = false, edit = e; }
+  void closed(std::uint32_t, const StrokeSummary& e) override { open = false, edit = e; }
   std::vector<std::uint32_t> blocks;
   std::vector<std::vector<std::byte>> images;
-  EditSummary edit;
+  StrokeSummary edit;
   bool open = false;
 };
 
@@ -222,7 +222,7 @@ RecordedStroke& recorded_stroke(bool clay) {
   Material m;
   m.plastic = clay;
   r->world.add_body(make_icosphere(0.1f, 7), m);
-  r->world.set_edit_sink(&r->sink);
+  r->world.set_stroke_sink(&r->sink);
   for (long tick = 0; tick < 500; ++tick) {
     Tool t;
     t.radius = 0.02;
@@ -230,8 +230,8 @@ RecordedStroke& recorded_stroke(bool clay) {
     t.active = tick < 300;
     r->world.step({&t, 1});
   }
-  r->world.close_edits();
-  r->world.set_edit_sink(nullptr);
+  r->world.close_strokes();
+  r->world.set_stroke_sink(nullptr);
   return *r;
 }
 
@@ -253,9 +253,9 @@ void BM_UndoStroke(benchmark::State& state) {
     }
   }
   for (auto _ : state)
-    for (std::size_t q = 0; q < blocks.size(); ++q) w.swap_block_image(0, blocks[q], images[q]);
+    for (std::size_t q = 0; q < blocks.size(); ++q) w.exchange_block_image(0, blocks[q], images[q]);
   if (state.iterations() % 2) // leave the world as recorded for the next run
-    for (std::size_t q = 0; q < blocks.size(); ++q) w.swap_block_image(0, blocks[q], images[q]);
+    for (std::size_t q = 0; q < blocks.size(); ++q) w.exchange_block_image(0, blocks[q], images[q]);
   std::uint32_t vertices = 0;
   for (std::uint32_t blk : blocks) vertices += w.body(0).end_of(blk) - w.body(0).begin_of(blk);
   state.counters["blocks"] = static_cast<double>(blocks.size());

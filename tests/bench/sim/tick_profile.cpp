@@ -27,8 +27,8 @@
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
 #include "input/replay_source.hpp"
-#include "loop/scene_tools.hpp"
-#include "loop/tool_driver.hpp"
+#include "simloop/scene_tools.hpp"
+#include "simloop/tool_driver.hpp"
 #include "scene/scene.hpp"
 #include "sim/world.hpp"
 
@@ -132,13 +132,13 @@ int run(int argc, char** argv) {
   const int columns = static_cast<int>(std::max<std::size_t>(sc.tools.size(), 1));
   sim::World<float> world(sc.settings, columns);
   for (const auto& m : sc.meshes) world.add_body(m.loaded.mesh, sc.material_of(m));
-  const std::vector<loop::ToolSpec> specs = loop::tool_specs(sc);
-  loop::DriverLimits limits;  // sculptd's defaults (tool margin 0.1 m)
-  limits.bounds = loop::tool_bounds(loop::mesh_bounds(sc), specs, 0.1);
-  loop::ToolDriver driver(specs, limits, rate);
+  const std::vector<simloop::ToolSpec> specs = simloop::tool_specs(sc);
+  simloop::DriverLimits limits;  // sculptd's defaults (tool margin 0.1 m)
+  limits.bounds = simloop::tool_bounds(simloop::mesh_bounds(sc), specs, 0.1);
+  simloop::ToolDriver driver(specs, limits, rate);
   concurrency::SpscRing<input::InputMessage> ring(4096);
   input::ControlMapper mapper(driver.size());
-  input::ToolRouter router(loop::tool_routes(sc));
+  input::ToolRouter router(simloop::tool_routes(sc));
   const input::MappingConfig mapping = input::parse_mapping(toml::table{});
   input::ReplaySource replay(session_file, rate, [&](std::uint8_t slot, const input::DeviceInfo& info) {
     router.detach(slot);

@@ -17,7 +17,7 @@
 
 #include <kj/async.h>
 
-#include "main/keeper.hpp"
+#include "keeper/keeper.hpp"
 #include "support/sculpt_rig.hpp"
 
 namespace sd = sculpt::daemon;
@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   fs::create_directories(dir);
   const fs::path scene = dir / "ball164k.toml";
   std::ofstream(scene) << scene_text(material);
-  auto bundle = std::make_shared<sd::SceneBundle>(sd::read_bundle(scene, sd::SimulationSettings{}));
+  auto bundle = std::make_shared<sd::SceneBundle>(sd::read_bundle(scene, sculpt::simloop::SimulationSettings{}));
 
   sd::JournalTap tap;
   sd::testing::Rig rig(&tap, argv[1], {}, bundle);

@@ -32,7 +32,7 @@ def run(sculptd, scene, session, seconds, store_dir, realtime, tmp, name):
         s = json.load(f)
     out = {"p50": s["jitter_us"]["p50"], "p99": s["jitter_us"]["p99"], "max": s["jitter_us"]["max"],
            "overruns": s["overruns"]}
-    m = re.search(r"autosave: (\d+) journal entries \((\d+) bytes\) in (\d+) commits, the longest gap between two "
+    m = re.search(r"keeper: (\d+) journal entries \((\d+) bytes\) in (\d+) commits, the longest gap between two "
                   r"(\d+) ms; (\d+) snapshots, the last of (\d+) bytes of state \((\d+) stored\) in (\d+) ms", p.stderr)
     if m:
         out.update(journal_bytes=int(m[2]), commits=int(m[3]), longest_gap_ms=int(m[4]), snapshots=int(m[5]),

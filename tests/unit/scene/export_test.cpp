@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "scene/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 #include "scene/errors.hpp"
 #include "scene/mesh_import.hpp"
 #include "sim/shapes.hpp"
@@ -162,11 +162,11 @@ TEST(AtomicFile, AWriterKilledAtAnyMomentLeavesTheOldOrTheNewFile) {
   std::mt19937 rng(42);
   int saw_old = 0, saw_new = 0;
   for (int round = 0; round < 16; ++round) {
-    write_file_atomically(file, old_bytes);
+    files::write_file_atomically(file, old_bytes);
     const pid_t pid = ::fork();
     ASSERT_GE(pid, 0);
     if (pid == 0) {
-      write_file_atomically(file, new_bytes);
+      files::write_file_atomically(file, new_bytes);
       ::_exit(0);
     }
     ::usleep(std::uniform_int_distribution<int>(0, 40000)(rng));
@@ -186,7 +186,7 @@ TEST(AtomicFile, AWriterKilledAtAnyMomentLeavesTheOldOrTheNewFile) {
 TEST(AtomicFile, WritesExactlyTheBytes) {
   TempDir dir;
   const std::string bytes("a\0b\nc", 5);
-  write_file_atomically(dir / "x.bin", bytes);
+  files::write_file_atomically(dir / "x.bin", bytes);
   EXPECT_EQ(testing::read_file(dir / "x.bin"), bytes);
 }
 

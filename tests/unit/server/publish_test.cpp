@@ -15,11 +15,11 @@
 #include <gtest/gtest.h>
 
 #include "haptics/feedback_board.hpp"
-#include "loop/sim_thread.hpp"
+#include "simloop/sim_thread.hpp"
 #include <nlohmann/json.hpp>
 
-#include "loop/stats_json.hpp"
-#include "main/pipeline.hpp"
+#include "simloop/stats_json.hpp"
+#include "host/sculpt_stages.hpp"
 #include "server/encode.hpp"
 #include "server/published_state.hpp"
 #include "sim/shapes.hpp"
@@ -103,7 +103,7 @@ TEST(Published, TheReadersBoundsFollowTheBodyAfterItMoves) {
   EXPECT_GT(reader.bounds(0)[4], 0.06f);
 }
 
-struct Marking : loop::TickStages {
+struct Marking : simloop::TickStages {
   explicit Marking(daemon::SculptStages& s) : stages(s) {}
   daemon::SculptStages& stages;
   void input(std::uint64_t tick, std::span<sim::Tool> tools) override {
@@ -117,11 +117,11 @@ TEST(Published, PublishingAllocatesNothingOnTheSimThreadWhileAReaderSyncs) {
   sim::World<float> world(sim::SimSettings{}, 1);
   world.add_body(sim::make_icosphere(0.05f, 3), sim::Material{});
   haptics::FeedbackBoard board(1);
-  loop::DriverLimits limits;
-  limits.bounds = loop::Box{{-1, -1, -1}, {1, 1, 1}};
-  loop::ToolSpec spec;
+  simloop::DriverLimits limits;
+  limits.bounds = simloop::Box{{-1, -1, -1}, {1, 1, 1}};
+  simloop::ToolSpec spec;
   spec.position = {0, 0.09, 0};
-  daemon::SculptStages stages(loop::ToolDriver({spec}, limits, 1000.0), board, 256);
+  daemon::SculptStages stages(simloop::ToolDriver({spec}, limits, 1000.0), board, 256);
   PublishedState state(world, 1000.0);
   stages.set_published(&state);
   Marking marking(stages);
@@ -147,9 +147,9 @@ TEST(Published, PublishingAllocatesNothingOnTheSimThreadWhileAReaderSyncs) {
   };
   ASSERT_TRUE(stages.ring().try_push(full_down()));
 
-  loop::SimThreadOptions o;
+  simloop::SimThreadOptions o;
   o.max_ticks = 600;
-  loop::SimThread thread(world, marking, 1, o);
+  simloop::SimThread thread(world, marking, 1, o);
   PublishedReader reader(state);
   support::reset_counted_allocations();
   // It starts paused (commands too: no allocation) and ticks once this
@@ -197,7 +197,7 @@ TEST(Encode, StatsTravelThroughTheProtocolToTheSameJson) {
   capnp::MallocMessageBuilder m;
   fill_stats(m.initRoot<proto::Stats>(), d);
   const auto back = stats_from(m.getRoot<proto::Stats>().asReader());
-  EXPECT_EQ(loop::stats_json(back).dump(), loop::stats_json(d.stats).dump());
+  EXPECT_EQ(simloop::stats_json(back).dump(), simloop::stats_json(d.stats).dump());
 }
 
 }  // namespace

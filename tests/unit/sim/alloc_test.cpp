@@ -2,7 +2,7 @@
 // binary is counted.
 #include <gtest/gtest.h>
 
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernels.hpp"
 #include "test_meshes.hpp"
 #include "support/allocation_counter.hpp"
@@ -54,14 +54,14 @@ TEST(RealTime, StepDoesNotAllocate) {
 
 // An edit sink that keeps nothing (a checksum), so what is counted is the
 // world's own recording, and undo's swaps.
-class ChecksumSink : public EditSink {
+class ChecksumSink : public StrokeSink {
  public:
   void opened(std::uint32_t, std::uint64_t) override { ++opened_; }
   void captured(std::uint32_t, std::uint32_t, std::span<const std::byte> image) override {
     ++captured_;
     for (std::byte c : image) sum_ += static_cast<unsigned>(c);
   }
-  void closed(std::uint32_t, const EditSummary&) override { ++closed_; }
+  void closed(std::uint32_t, const StrokeSummary&) override { ++closed_; }
   long opened_ = 0, captured_ = 0, closed_ = 0;
   unsigned long sum_ = 0;
 };
@@ -73,7 +73,7 @@ TEST(RealTime, RecordingEditsAndSwappingImagesDoNotAllocate) {
   w.add_body(make_icosphere(0.1f, 4), clay);
   w.add_body(test::far_spring_torus(), Material{});  // the ring path, far springs
   ChecksumSink sink;
-  w.set_edit_sink(&sink);
+  w.set_stroke_sink(&sink);
   std::vector<std::byte> images[2];
   for (std::uint32_t b = 0; b < 2; ++b) {
     images[b].resize(w.block_image_bytes(b));
@@ -91,16 +91,16 @@ TEST(RealTime, RecordingEditsAndSwappingImagesDoNotAllocate) {
     if (n > 300) tools[0].active = tools[1].active = false;
     w.step(tools);
   }
-  w.close_edits();
+  w.close_strokes();
   for (int k = 0; k < 10; ++k)
-    for (std::uint32_t b = 0; b < 2; ++b) w.swap_block_image(b, 3, images[b]);
+    for (std::uint32_t b = 0; b < 2; ++b) w.exchange_block_image(b, 3, images[b]);
   for (int n = 0; n < 20; ++n) w.step({});
   EXPECT_EQ(support::counted_allocations() - before, 0);
   support::count_allocations_on_this_thread(false);
   EXPECT_GE(sink.opened_, 2);
   EXPECT_GT(sink.captured_, 0);
   EXPECT_EQ(sink.closed_, sink.opened_);
-  w.set_edit_sink(nullptr);
+  w.set_stroke_sink(nullptr);
 }
 
 }  // namespace

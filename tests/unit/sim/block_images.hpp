@@ -11,7 +11,7 @@
 #include <span>
 #include <vector>
 
-#include "sim/edits.hpp"
+#include "sim/strokes.hpp"
 #include "sim/kernels.hpp"
 #include "sim/world.hpp"
 
@@ -19,14 +19,14 @@ namespace sculpt::sim::test {
 
 struct RecordedEdit {
   std::uint32_t body = 0;
-  EditSummary summary;
+  StrokeSummary summary;
   bool closed = false;
   std::vector<std::uint32_t> blocks{};           // in capture order
   std::vector<std::vector<std::byte>> images{};  // beside them
 };
 
 // Keeps every edit; flags what breaks the sink's contract.
-class RecordingSink : public EditSink {
+class RecordingSink : public StrokeSink {
  public:
   explicit RecordingSink(std::size_t bodies) : open_(bodies, -1) {}
   void opened(std::uint32_t body, std::uint64_t tick) override {
@@ -41,7 +41,7 @@ class RecordingSink : public EditSink {
     e.blocks.push_back(block);
     e.images.emplace_back(image.begin(), image.end());
   }
-  void closed(std::uint32_t body, const EditSummary& s) override {
+  void closed(std::uint32_t body, const StrokeSummary& s) override {
     ASSERT_NE(open_.at(body), -1) << "closed with no edit open";
     RecordedEdit& e = edits[static_cast<std::size_t>(open_[body])];
     EXPECT_EQ(s.first_tick, e.summary.first_tick);
@@ -161,7 +161,7 @@ std::vector<BodyBytes> split_state(std::span<const std::byte> bytes) {
       p.value<std::uint32_t>(), p.value<std::uint8_t>();
     }
     for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // snapshot
-    per_block(body, p.array(sizeof(SnapshotGrid<S>), {blocks}), sizeof(SnapshotGrid<S>));
+    per_block(body, p.array(sizeof(CheckpointGrid<S>), {blocks}), sizeof(CheckpointGrid<S>));
     for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's snapshot rest shape
     columns(body, p.array(s, {cols * n, 0}), s, n);
     p.value<double>(), p.value<double>(), p.value<std::uint64_t>();  // energies, blow-ups

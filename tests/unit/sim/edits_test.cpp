@@ -1,4 +1,4 @@
-// Edits and block images (sim/edits.hpp, World::swap_block_image): an edit
+// Edits and block images (sim/strokes.hpp, World::exchange_block_image): an edit
 // captures every block it changes before the change (checked against
 // World::state() taken apart by block, not against the images), swapping
 // the images back gives the body as it was when the edit opened, on every
@@ -17,7 +17,7 @@
 
 #include "block_images.hpp"
 #include "sim/clay.hpp"
-#include "sim/edit_capture.hpp"
+#include "sim/stroke_recorder.hpp"
 #include "sim/kernel_testing.hpp"
 #include "sim/shapes.hpp"
 #include "sim/stability.hpp"
@@ -121,8 +121,8 @@ std::vector<Tool> stroke_script(int tick) {
 template <class S>
 class Recorder {
  public:
-  explicit Recorder(World<S>& w) : w_(w), sink_(w.body_count()), cur_(w.state()) { w_.set_edit_sink(&sink_); }
-  ~Recorder() { w_.set_edit_sink(nullptr); }
+  explicit Recorder(World<S>& w) : w_(w), sink_(w.body_count()), cur_(w.state()) { w_.set_stroke_sink(&sink_); }
+  ~Recorder() { w_.set_stroke_sink(nullptr); }
 
   void step(std::span<const Tool> tools) {
     const std::vector<bool> closed = closed_now();
@@ -135,9 +135,9 @@ class Recorder {
     }
     check_newly_closed(closed);
   }
-  void close_edits() {
+  void close_strokes() {
     const std::vector<bool> closed = closed_now();
-    w_.close_edits();
+    w_.close_strokes();
     cur_ = w_.state();
     check_newly_closed(closed);
   }
@@ -145,7 +145,7 @@ class Recorder {
   void undo_all(const std::string& name, std::size_t first = 0) {
     for (std::size_t k = sink_.edits.size(); k-- > first;) {
       test::RecordedEdit& e = sink_.edits[k];
-      for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.swap_block_image(e.body, e.blocks[q], e.images[q]);
+      for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.exchange_block_image(e.body, e.blocks[q], e.images[q]);
       const test::BodyBytes now = test::split_state<S>(w_.state())[e.body];
       for (std::size_t blk = 0; blk < now.blocks.size(); ++blk)
         EXPECT_TRUE(now.blocks[blk] == onsets_[k].blocks[blk]) << name << ": edit " << k << ", block " << blk;
@@ -154,7 +154,7 @@ class Recorder {
   }
   void redo_all() {
     for (test::RecordedEdit& e : sink_.edits)
-      for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.swap_block_image(e.body, e.blocks[q], e.images[q]);
+      for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.exchange_block_image(e.body, e.blocks[q], e.images[q]);
   }
   std::vector<test::RecordedEdit>& edits() { return sink_.edits; }
   bool any_open() const { return sink_.any_open(); }
@@ -278,7 +278,7 @@ void undo_then_sculpt(const Case& c) {
       c.portable ? std::optional<kernel::testing::ScopedPortable>(std::in_place, true) : std::nullopt;
   const auto world = make_world<S>(c), twin = make_world<S>(c);
   test::RecordingSink sink(world->body_count());
-  world->set_edit_sink(&sink);
+  world->set_stroke_sink(&sink);
   const Vec3d top{0, 1, 0}, side{0.6, 0.0, 0.8};
   until_rest(*world, [&](int t) { world->step(press_along(top, t)), twin->step(press_along(top, t)); }, 150);
   ASSERT_TRUE(twin->state() == world->state()) << c.name;
@@ -289,13 +289,13 @@ void undo_then_sculpt(const Case& c) {
   ASSERT_TRUE(at_rest(*twin)) << c.name;
   for (std::size_t k = sink.edits.size(); k-- > first;)
     for (std::size_t q = 0; q < sink.edits[k].blocks.size(); ++q)
-      world->swap_block_image(sink.edits[k].body, sink.edits[k].blocks[q], sink.edits[k].images[q]);
+      world->exchange_block_image(sink.edits[k].body, sink.edits[k].blocks[q], sink.edits[k].images[q]);
   for (int t = 0; t < 400; ++t) {
     world->step(press_along(side, t));
     twin->step(press_along(side, t));
     ASSERT_EQ(world->hash(), twin->hash()) << c.name << ": tick " << t << " of the stroke after the undo";
   }
-  world->set_edit_sink(nullptr);
+  world->set_stroke_sink(nullptr);
 }
 
 TEST(Edits, AnUndoneWorldStepsOnAsIfTheStrokeNeverWas) {
@@ -329,7 +329,7 @@ TEST(Edits, TheGuardsRollbackIsCaptured) {
     EXPECT_EQ(rec.edits().back().blocks.size(), w.body(0).blocks) << "tick " << n;
   }
   EXPECT_TRUE(asleep_at_blowup) << "the guard must have rolled back blocks that slept";
-  rec.close_edits();
+  rec.close_strokes();
   rec.undo_all("rollback");
 }
 
@@ -376,7 +376,7 @@ TEST(Edits, ASwapIsAnOrdinaryChangeForTheViewers) {
   w.add_body(make_icosphere(0.1f, 4), clay);
   untouched.add_body(make_icosphere(0.1f, 4), clay);
   test::RecordingSink sink(1);
-  w.set_edit_sink(&sink);
+  w.set_stroke_sink(&sink);
   until_rest(w, [&](int t) { w.step(press_along({0, 1, 0}, t)); }, 150);
   ASSERT_EQ(sink.edits.size(), 1u);
   ASSERT_TRUE(sink.edits[0].closed);
@@ -385,7 +385,7 @@ TEST(Edits, ASwapIsAnOrdinaryChangeForTheViewers) {
   EXPECT_NE(w.hash(), untouched.hash()) << "clay keeps the dent";
   const test::RecordedEdit& e = sink.edits[0];
   std::vector<std::vector<std::byte>> images = e.images;
-  for (std::size_t q = 0; q < e.blocks.size(); ++q) w.swap_block_image(0, e.blocks[q], images[q]);
+  for (std::size_t q = 0; q < e.blocks.size(); ++q) w.exchange_block_image(0, e.blocks[q], images[q]);
   EXPECT_EQ(w.hash(), untouched.hash()) << "the only edit undone: the sphere as it was built";
   EXPECT_EQ(w.body(0).lo, untouched.body(0).lo);
   EXPECT_EQ(w.body(0).hi, untouched.body(0).hi);
@@ -432,9 +432,9 @@ TEST(Edits, AYieldWritingASleepingBlocksRestLengthCapturesItFirst) {
   ASSERT_NE(mirror, 0u);
   const std::uint32_t blk_a = i / kernel::kBlock, blk_b = j / kernel::kBlock;
   test::RecordingSink sink(1);
-  EditRecorder<float> recorder(0, b);
+  StrokeRecorder<float> recorder(0, b);
   recorder.set_sink(&sink);
-  b.edits = &recorder;
+  b.strokes = &recorder;
   b.tools[0].candidate_count = 1;  // a tool near: the edit opens
   recorder.begin_broadphase(b);
   recorder.end_broadphase(b, 1);
@@ -446,9 +446,9 @@ TEST(Edits, AYieldWritingASleepingBlocksRestLengthCapturesItFirst) {
   yield_block(b, blk_a, mask.data());
   ASSERT_NE(b.rest_length[mirror], rest) << "the spring must have yielded";
   ASSERT_EQ(sink.edits[0].blocks, (std::vector<std::uint32_t>{blk_a, blk_b}));
-  swap_block_state(b, recorder.layout(), blk_b, sink.edits[0].images[1].data());
+  exchange_block_state(b, recorder.layout(), blk_b, sink.edits[0].images[1].data());
   EXPECT_EQ(b.rest_length[mirror], rest) << "B's image holds its rest length from before the yield";
-  b.edits = nullptr, b.edit_done = nullptr;
+  b.strokes = nullptr, b.stroke_done = nullptr;
 }
 
 // A scripted change (World::set_state) between the ticks of an edit is the
@@ -472,12 +472,12 @@ TEST(Edits, ScriptedChangesDuringAnEditAreCaptured) {
 }
 
 // When an edit opens, is released and closes, against what the broadphase
-// and the sleeping say; the tools it records; close_edits mid-stroke.
+// and the sleeping say; the tools it records; close_strokes mid-stroke.
 TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
   World<float> w(settings(), 2);
   w.add_body(make_icosphere(0.1f, 4), Material{});
   test::RecordingSink sink(1);
-  w.set_edit_sink(&sink);
+  w.set_stroke_sink(&sink);
   std::uint64_t near_first = 0, near_last = 0, rest = 0;
   for (int n = 0; n < 8000 && (n < 300 || sink.any_open()); ++n) {
     Tool a, b;
@@ -493,7 +493,7 @@ TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
     if (!rest && !sink.edits.empty() && sink.edits[0].closed) rest = w.tick();
   }
   ASSERT_EQ(sink.edits.size(), 1u);
-  const EditSummary& e = sink.edits[0].summary;
+  const StrokeSummary& e = sink.edits[0].summary;
   EXPECT_GT(near_first, 1u) << "it starts far away";
   EXPECT_EQ(e.first_tick, near_first);
   EXPECT_EQ(e.release_tick, near_last + 1);
@@ -510,14 +510,14 @@ TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
     w.step({&a, 1});
   }
   ASSERT_EQ(sink.edits.size(), 2u);
-  w.close_edits();
+  w.close_strokes();
   EXPECT_TRUE(sink.edits[1].closed);
   EXPECT_EQ(sink.edits[1].summary.release_tick, 0u);
   EXPECT_EQ(sink.edits[1].summary.last_tick, w.tick());
   w.step({&a, 1});
   ASSERT_EQ(sink.edits.size(), 3u);
   EXPECT_EQ(sink.edits[2].summary.first_tick, w.tick());
-  w.set_edit_sink(nullptr);  // closes it
+  w.set_stroke_sink(nullptr);  // closes it
   EXPECT_TRUE(sink.edits[2].closed);
   w.step({&a, 1});
   EXPECT_EQ(sink.edits.size(), 3u) << "no sink, no edits";
@@ -560,7 +560,7 @@ TEST(Edits, RandomMeshesAndToolsCaptureEverything) {
       }
       rec.step(tools);
     }
-    rec.close_edits();
+    rec.close_strokes();
     edits += rec.edits().size();
     blowups += w.stats().blowups_total;
     const std::vector<std::byte> before = w.state();
@@ -589,13 +589,13 @@ TEST(Edits, BadSwapsAreRefusedByNameAndChangeNothing) {
     }
     EXPECT_TRUE(w.state() == before) << word;
   };
-  refused([&] { w.swap_block_image(1, 0, image); }, "body 1");
-  refused([&] { w.swap_block_image(0, w.body(0).blocks, image); }, "block");
-  refused([&] { w.swap_block_image(0, 0, longer); }, "bytes");
+  refused([&] { w.exchange_block_image(1, 0, image); }, "body 1");
+  refused([&] { w.exchange_block_image(0, w.body(0).blocks, image); }, "block");
+  refused([&] { w.exchange_block_image(0, 0, longer); }, "bytes");
   refused([&] { w.block_image(0, 0, longer); }, "bytes");
   refused([&] { (void)w.block_image_bytes(2); }, "body 2");
   test::RecordingSink sink(1);
-  w.set_edit_sink(&sink);
+  w.set_stroke_sink(&sink);
   Tool t;
   t.radius = 0.02;
   t.position = {0.0, 0.115, 0.0};
@@ -603,15 +603,15 @@ TEST(Edits, BadSwapsAreRefusedByNameAndChangeNothing) {
   ASSERT_EQ(sink.edits.size(), 1u);
   const std::vector<std::byte> touched = w.state();
   try {
-    w.swap_block_image(0, 0, image);
+    w.exchange_block_image(0, 0, image);
     ADD_FAILURE() << "a swap into an open edit was accepted";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("close_edits"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("close_strokes"), std::string::npos) << e.what();
   }
   EXPECT_TRUE(w.state() == touched);
-  w.close_edits();
-  w.swap_block_image(0, 1, image);  // now it may
-  w.set_edit_sink(nullptr);
+  w.close_strokes();
+  w.exchange_block_image(0, 1, image);  // now it may
+  w.set_stroke_sink(nullptr);
 }
 
 }  // namespace

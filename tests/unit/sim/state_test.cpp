@@ -317,7 +317,7 @@ TEST(State, ABlockImageFromOutsideIsCheckedBeforeASwap) {
   EXPECT_EQ(w.block_image_error(0, 0, bad), "block 0: a flag is not a flag");
   bad = image;
   const float far = 3.0f;  // the first position, out of the block's box
-  std::memcpy(bad.data() + sizeof(BlockState<float>) + sizeof(SnapshotGrid<float>), &far, sizeof far);
+  std::memcpy(bad.data() + sizeof(BlockState<float>) + sizeof(CheckpointGrid<float>), &far, sizeof far);
   EXPECT_NE(w.block_image_error(0, 0, bad).find("block 0: a value is 3"), std::string::npos);
 }
 

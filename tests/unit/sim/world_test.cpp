@@ -305,14 +305,14 @@ TEST(Layout, EveryTriangleOnceNearOrFar) {
 // The guard's snapshot keeps 16 bits per coordinate on a grid over each
 // block's box: a saved position comes back within half a grid step (plus
 // rounding), and a block with a non-finite vertex keeps its older snapshot.
-TEST(Layout, SnapshotComesBackWithinItsGrid) {
+TEST(Layout, CheckpointComesBackWithinItsGrid) {
   Body<float> b = make_body<float>(make_icosphere(0.1f, 3), Material{}, BodyOptions{}, 1);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> jiggle(-0.004f, 0.004f);
   for (std::uint32_t i = 0; i < b.n; ++i) b.x[i] += jiggle(rng), b.y[i] += jiggle(rng), b.z[i] += jiggle(rng);
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) b.save_positions(blk);
   for (std::uint32_t blk = 0; blk < b.blocks; ++blk) {
-    const SnapshotGrid<float>& g = b.snapshot_grid[blk];
+    const CheckpointGrid<float>& g = b.checkpoint_grid[blk];
     for (std::uint32_t i = b.begin_of(blk); i < b.end_of(blk); ++i) {
       const std::array<float, 3> p = b.saved_position(i);
       const float want[3] = {b.x[i], b.y[i], b.z[i]};
