@@ -17,6 +17,7 @@
 #include <fstream>
 #include <memory>
 #include <random>
+#include <optional>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -361,11 +362,20 @@ TEST(Stream, SocketActivationServesThePassedSocket) {
   support::ChildProcess activated({activate, "-l", socket, SCULPTD_BIN, "--scene", "builtin:default", "--input",
                                    "replay:" + sessions("push.jsonl"), "--socket", other},
                                   {.err = support::ChildProcess::Output::capture});
-  for (int i = 0; i < 500 && ::access(socket.c_str(), F_OK) != 0; ++i) std::this_thread::sleep_for(10ms);
   {
     auto io = kj::setupAsyncIo();
-    client::Connection c(io, socket, "activated-client");  // this connection starts sculptd
-    auto st = c.session().statusRequest().send().wait(io.waitScope);
+    // The socket's file exists once systemd-socket-activate has bound it,
+    // a moment before it listens: a connection refused then is retried.
+    std::optional<client::Connection> c;
+    for (const auto end = std::chrono::steady_clock::now() + 30s; !c;) {
+      try {
+        c.emplace(io, socket, "activated-client");  // this connection starts sculptd
+      } catch (const client::ClientError& e) {
+        if (e.kind() != client::ClientError::Kind::no_daemon || std::chrono::steady_clock::now() > end) throw;
+        std::this_thread::sleep_for(10ms);
+      }
+    }
+    auto st = c->session().statusRequest().send().wait(io.waitScope);
     EXPECT_EQ(st.getStats().getScene(), "builtin:default");
   }
   EXPECT_NE(::access(other.c_str(), F_OK), 0) << "sculptd bound --socket although systemd passed one";

@@ -39,6 +39,7 @@
 #include <nlohmann/json.hpp>
 
 #include "client/connection.hpp"
+#include "jitter_histogram.hpp"
 #include "sculptd_process.hpp"
 #include "support/child_process.hpp"
 
@@ -48,7 +49,8 @@ using namespace std::chrono_literals;
 namespace {
 
 namespace fs = std::filesystem;
-using Histogram = std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>>;  // lower → (upper, count)
+using Histogram = bench::JitterHistogram;
+using bench::quantile_us;
 
 struct Reading {
   Histogram jitter;
@@ -61,7 +63,7 @@ Reading read_now(client::Connection& c, kj::WaitScope& ws) {
   auto r = c.session().statusRequest().send().wait(ws);
   const auto st = r.getStats();
   Reading out;
-  for (const auto b : st.getJitterHistogram()) out.jitter[b.getLowerNs()] = {b.getUpperNs(), b.getCount()};
+  out.jitter = bench::jitter_of(st);
   out.overruns = st.getOverruns();
   out.ticks = st.getTicks();
   out.late_wake = st.getOverrunCauses().getLateWake();
@@ -79,13 +81,7 @@ struct Acc {
 };
 
 void add(Acc& acc, const Reading& before, const Reading& after) {
-  for (const auto& [lo, uc] : after.jitter) {
-    std::uint64_t prev = 0;
-    if (auto it = before.jitter.find(lo); it != before.jitter.end()) prev = it->second.second;
-    auto& slot = acc.jitter[lo];
-    slot.first = uc.first;
-    slot.second += uc.second - prev;
-  }
+  bench::add_diff(acc.jitter, before.jitter, after.jitter);
   acc.overruns += after.overruns - before.overruns;
   acc.ticks += after.ticks - before.ticks;
   acc.late_wake += after.late_wake - before.late_wake;
@@ -96,19 +92,6 @@ void add(Acc& acc, const Reading& before, const Reading& after) {
   ++acc.windows;
 }
 
-// As LatencyHistogram::quantile_ns: the middle of the bucket holding the quantile.
-double quantile_us(const Histogram& h, double q) {
-  std::uint64_t total = 0;
-  for (const auto& [lo, uc] : h) total += uc.second;
-  if (total == 0) return 0;
-  std::uint64_t seen = 0;
-  for (const auto& [lo, uc] : h) {
-    seen += uc.second;
-    if (static_cast<double>(seen) >= q * static_cast<double>(total) && seen > 0)
-      return 0.5 * static_cast<double>(lo + uc.first) * 1e-3;
-  }
-  return 0;
-}
 
 // The upper bound of the highest non-empty bucket.
 double max_us(const Histogram& h) {

@@ -23,6 +23,7 @@
 #include <kj/async-io.h>
 
 #include "client/connection.hpp"
+#include "jitter_histogram.hpp"
 #include "sculptd_process.hpp"
 #include "stream_viewer.hpp"
 
@@ -31,38 +32,16 @@ using namespace std::chrono_literals;
 
 namespace {
 
-using Histogram = std::map<std::uint64_t, std::pair<std::uint64_t, std::uint64_t>>;  // lower → (upper, count)
+using Histogram = bench::JitterHistogram;
+using bench::add_diff;
+using bench::quantile_us;
 
 Histogram jitter_now(client::Connection& c, kj::WaitScope& ws) {
   auto r = c.session().statusRequest().send().wait(ws);
-  Histogram h;
-  for (const auto b : r.getStats().getJitterHistogram()) h[b.getLowerNs()] = {b.getUpperNs(), b.getCount()};
-  return h;
+  return bench::jitter_of(r.getStats());
 }
 
-void add_diff(Histogram& acc, const Histogram& before, const Histogram& after) {
-  for (const auto& [lo, uc] : after) {
-    std::uint64_t prev = 0;
-    if (auto it = before.find(lo); it != before.end()) prev = it->second.second;
-    auto& slot = acc[lo];
-    slot.first = uc.first;
-    slot.second += uc.second - prev;
-  }
-}
 
-// As LatencyHistogram::quantile_ns: the middle of the bucket holding the quantile.
-double quantile_us(const Histogram& h, double q) {
-  std::uint64_t total = 0;
-  for (const auto& [lo, uc] : h) total += uc.second;
-  if (total == 0) return 0;
-  std::uint64_t seen = 0;
-  for (const auto& [lo, uc] : h) {
-    seen += uc.second;
-    if (static_cast<double>(seen) >= q * static_cast<double>(total) && seen > 0)
-      return 0.5 * static_cast<double>(lo + uc.first) * 1e-3;
-  }
-  return 0;
-}
 
 double percentile(std::vector<std::int64_t>& v, double q) {
   if (v.empty()) return NAN;
