@@ -122,7 +122,7 @@ class DaemonControl {
   virtual kj::Promise<std::string> reset() = 0;
   // Asks; the sim thread applies it at its next tick boundary.
   virtual std::string set_paused(bool paused) = 0;
-  // What the sim thread runs now (pause answers once this agrees: a snapshot
+  // What the sim thread runs now (pause answers once this agrees: a keyframe
   // taken after pause() returns is the final state).
   virtual bool paused_now() = 0;
 

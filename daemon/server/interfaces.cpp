@@ -58,8 +58,8 @@ class SessionImpl final : public proto::Session::Server {
       fill_devices(context.getResults().initDevices(static_cast<unsigned>(list.size())), list);
     });
   }
-  kj::Promise<void> snapshot(SnapshotContext context) override {
-    return answer([&] { server_.fill_snapshot_now(context.getResults(server_.snapshot_size_hint()).initSnapshot()); });
+  kj::Promise<void> keyframe(KeyframeContext context) override {
+    return answer([&] { server_.fill_keyframe_now(context.getResults(server_.keyframe_size_hint()).initKeyframe()); });
   }
   kj::Promise<void> subscribe(SubscribeContext context) override {
     if (!server_.admit(client_)) return closing();
@@ -142,7 +142,7 @@ class SessionImpl final : public proto::Session::Server {
     return kj::READY_NOW;
   }
   // ok only once the sim thread has obeyed: a stalled or finished one never does,
-  // and a snapshot taken after pause() answers ok must be the final state.
+  // and a keyframe taken after pause() answers ok must be the final state.
   kj::Promise<void> answer_when_paused(proto::Result::Builder r, bool paused) {
     return server_.until_paused(paused).then([r, paused](bool obeyed) mutable {
       r.setOk(obeyed);

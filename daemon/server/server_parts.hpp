@@ -32,10 +32,10 @@ struct Server::Stream {
   std::vector<std::vector<float>> baseline;   // per body, file order
   std::uint64_t evaluated = 0;                // reader serial its baseline was compared at
   PublishedHeader sent_header{};              // tools as last sent
-  std::uint64_t sequence = 0;                 // of the last frame or snapshot sent
-  std::uint64_t snapshots = 0;                // sent to this viewer
+  std::uint64_t sequence = 0;                 // of the last frame or keyframe sent
+  std::uint64_t keyframes = 0;                // sent to this viewer
   std::int64_t last_send_ns = 0, last_stats_ns = 0;
-  bool needs_snapshot = true;
+  bool needs_keyframe = true;
   bool in_flight = false;
   bool dead = false;
   kj::Promise<void> pending = nullptr;

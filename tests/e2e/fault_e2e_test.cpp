@@ -120,8 +120,8 @@ TEST(Load, ScenesTheSimulationCannotRunAreRefusedAndTheSculptKept) {
     EXPECT_EQ(now.scene, before.scene) << "after " << b.path;
     EXPECT_EQ(now.vertices, before.vertices) << "after " << b.path;
   }
-  // The viewer saw no new snapshot: its sculpt was never touched.
-  EXPECT_EQ(viewer.seen().snapshots, 1u);
+  // The viewer saw no new keyframe: its sculpt was never touched.
+  EXPECT_EQ(viewer.seen().keyframes, 1u);
   EXPECT_FALSE(viewer.seen().error) << viewer.seen().error_text;
   // An empty path is the caller's mistake, told by sculptctl itself.
   const CtlRun empty = sculptctl({"load", "", "--socket", d.socket});
@@ -337,12 +337,12 @@ TEST(Clients, CallsWhoseAnswersAreNeverReadEndThatClientOnly) {
   RawRpc raw(d.socket);
   ASSERT_TRUE(raw.hello());
   std::uint32_t sent = 0;
-  for (std::uint32_t q = 2; q < 20002 && raw.snapshot(q); ++q) ++sent;
+  for (std::uint32_t q = 2; q < 20002 && raw.keyframe(q); ++q) ++sent;
   EXPECT_TRUE(raw.closed_within(60s)) << "the flooding client was never disconnected";
   EXPECT_TRUE(d.process->wait_for_log("max_queued_bytes", 20s)) << d.process->log();
   std::uint64_t rss_peak = 0;
   for (int i = 0; i < 10; ++i) rss_peak = std::max(rss_peak, rss_kb(d.process->pid())), std::this_thread::sleep_for(50ms);
-  std::printf("%u pipelined snapshot() calls sent before the daemon closed the connection; RSS %llu kB before, "
+  std::printf("%u pipelined keyframe() calls sent before the daemon closed the connection; RSS %llu kB before, "
               "%llu kB after\n",
               sent, static_cast<unsigned long long>(rss_before), static_cast<unsigned long long>(rss_peak));
   EXPECT_LT(rss_peak, rss_before + 256 * 1024) << "the queue's memory was not given back";

@@ -161,7 +161,7 @@ TEST(Soak, OneDaemonTakesEveryKindOfFaultAndStaysAliveAtRateAndBounded) {
     } else if (what == 8) {  // calls whose answers are never read
       RawRpc raw(d.socket);
       raw.hello();
-      for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+      for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
       }
       ++tried["flood of unread calls"];
     } else if (what == 9) {

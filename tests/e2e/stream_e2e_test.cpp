@@ -67,10 +67,10 @@ struct Control {
   }
   std::uint64_t viewers() { return c.session().statusRequest().send().wait(io.waitScope).getStats().getViewers(); }
   // The daemon's whole state now, as a mirror.
-  client::MeshMirror snapshot() {
-    auto r = c.session().snapshotRequest().send().wait(io.waitScope);
+  client::MeshMirror keyframe() {
+    auto r = c.session().keyframeRequest().send().wait(io.waitScope);
     client::MeshMirror m;
-    m.apply(r.getSnapshot());
+    m.apply(r.getKeyframe());
     return m;
   }
 };
@@ -97,9 +97,9 @@ double max_error(const std::vector<client::MirrorMesh>& have, const std::vector<
 // its tolerance (the last frames arrive within about a keep-alive period).
 void expect_viewers_match(Control& control, std::vector<std::unique_ptr<StreamViewer>>& viewers) {
   ASSERT_TRUE(control.pause(true));
-  // A snapshot after the pause is the final state; every viewer gets a frame
+  // A keyframe after the pause is the final state; every viewer gets a frame
   // at or after its sequence (changes, or the next keep-alive).
-  const client::MeshMirror truth = control.snapshot();
+  const client::MeshMirror truth = control.keyframe();
   for (auto& v : viewers) {
     ASSERT_TRUE(v->wait_for_sequence(truth.sequence(), 20s)) << v->seen().error_text;
     // The frame carrying the last changes may be the one after the first at
@@ -147,7 +147,7 @@ TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTole
   }
   EXPECT_EQ(counted, 16u);
   // The recorded gamepad (slot 0) drives both tools.
-  const client::MeshMirror now = control.snapshot();
+  const client::MeshMirror now = control.keyframe();
   ASSERT_EQ(now.tools().size(), 2u);
   for (const auto& t : now.tools()) EXPECT_EQ(t.device_slot, 0) << "tool " << t.id;
 
@@ -339,7 +339,7 @@ TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
   const auto seen = v.seen();
   const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - subscribed).count();
   EXPECT_FALSE(seen.error) << seen.error_text;
-  EXPECT_EQ(seen.snapshots, 1u);
+  EXPECT_EQ(seen.keyframes, 1u);
   EXPECT_EQ(seen.frames_with_meshes, 0u);
   EXPECT_EQ(seen.frames, seen.keepalives);
   EXPECT_GE(seen.keepalives, 3u);

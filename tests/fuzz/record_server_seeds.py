@@ -5,7 +5,7 @@
 
 Starts sculptd on a replayed session, puts a proxy socket in front of it and
 runs sculptctl commands through the proxy; each connection's client→daemon
-bytes become one seed file (hello, status, devices, snapshot, control calls).
+bytes become one seed file (hello, status, devices, keyframe, control calls).
 Then the same in front of FAKE_SCULPTD (build/tests/unit/server/fake_sculptd:
 the server on a fake daemon with a history and an export to read) for undo,
 redo, history and export (its chunked reads included).
@@ -64,7 +64,7 @@ def record(target, seeds):
 
 record(real, [('hello_status', ['status']), ('devices', ['devices']), ('pause', ['pause']),
               ('resume', ['resume']), ('reset', ['reset']), ('load_bad', ['load', '/nonexistent.toml']),
-              ('snapshot', ['save', os.path.join(tmp, 'x.obj')])])
+              ('keyframe', ['save', os.path.join(tmp, 'x.obj')])])
 d.terminate()
 d.wait()
 

@@ -4,7 +4,7 @@
 // asks for the status every 10 ms from its own connection, and each phase
 // does one thing meanwhile:
 //   idle        nothing more
-//   flood       one raw client sends 2000 snapshot() calls it never reads,
+//   flood       one raw client sends 2000 keyframe() calls it never reads,
 //               then closes (as fault_soak does), again and again
 //   flood-held  the same, but the client holds the connection until the
 //               daemon drops it (over max_queued_bytes)
@@ -98,7 +98,7 @@ void run_phase(const std::string& phase, const std::string& socket, const Option
       {
         RawRpc raw(socket);
         raw.hello();
-        for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+        for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
         }
       }
       std::this_thread::sleep_for(100ms);
@@ -107,7 +107,7 @@ void run_phase(const std::string& phase, const std::string& socket, const Option
     while (Clock::now() < end) {
       RawRpc raw(socket);
       raw.hello();
-      for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+      for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
       }
       if (!raw.closed_within(60s)) throw Failed("the daemon never dropped a client flooding unread calls");
     }
@@ -150,19 +150,19 @@ std::uint64_t io_cpu_ns(pid_t pid) {
   return on_cpu;
 }
 
-// One message's worth of the io loop's work: a snapshot() answer to a client
+// One message's worth of the io loop's work: a keyframe() answer to a client
 // that reads it (what a flood asks for 2000 times), its size and the io
 // thread's CPU time during the call, per call.
-struct SnapshotCost {
+struct KeyframeCost {
   std::vector<double> cpu_ms;
   double bytes = 0;
 };
-void measure_snapshot(const std::string& socket, pid_t pid, SnapshotCost& out) {
+void measure_keyframe(const std::string& socket, pid_t pid, KeyframeCost& out) {
   auto io = kj::setupAsyncIo();
   client::Connection c(io, socket, "status-bench");
   for (int i = 0; i < 10; ++i) {
     const std::uint64_t cpu0 = io_cpu_ns(pid);
-    auto r = c.session().snapshotRequest().send().wait(io.waitScope);
+    auto r = c.session().keyframeRequest().send().wait(io.waitScope);
     out.cpu_ms.push_back(static_cast<double>(io_cpu_ns(pid) - cpu0) * 1e-6);
     out.bytes = static_cast<double>(r.totalSize().wordCount * 8);
   }
@@ -211,7 +211,7 @@ int main(int argc, char** argv) {
   std::mt19937 rng(19);
   // By binary, then phase: every call of every round.
   std::map<std::string, std::map<std::string, Samples>> all;
-  std::map<std::string, SnapshotCost> snapshot_cost;
+  std::map<std::string, KeyframeCost> keyframe_cost;
   try {
     for (int round = 0; round < o.rounds; ++round)
       for (const std::string& phase : o.phases)
@@ -223,7 +223,7 @@ int main(int argc, char** argv) {
           if (o.realtime) args.push_back("--realtime");
           Sculptd d(args, binary);
           if (!d.wait_for_log("sculptd ready", 120s)) throw Failed("sculptd did not start:\n" + d.log());
-          measure_snapshot(socket, d.pid(), snapshot_cost[binary]);
+          measure_keyframe(socket, d.pid(), keyframe_cost[binary]);
           StatusProbe probe(socket, d.pid());
           // The first calls connect; the session gets going.
           std::this_thread::sleep_for(1s);
@@ -254,9 +254,9 @@ int main(int argc, char** argv) {
               "  largest wait - probe's - all daemon threads' queueing (a lower bound of the daemon's part)\n");
   for (const std::string& binary : o.binaries) {
     if (o.binaries.size() > 1) std::printf(" sculptd %s\n", binary.c_str());
-    const SnapshotCost& sc = snapshot_cost[binary];
+    const KeyframeCost& sc = keyframe_cost[binary];
     const Spread cpu = spread(sc.cpu_ms);
-    std::printf("  one snapshot() answer (%.1f MB): the io thread's CPU per call p50 %.2f ms, max %.2f ms\n",
+    std::printf("  one keyframe() answer (%.1f MB): the io thread's CPU per call p50 %.2f ms, max %.2f ms\n",
                 sc.bytes / 1e6, cpu.p50, cpu.max);
     std::printf("  %-26s %6s %4s  %-21s  %-21s  %-21s  %-21s  %-21s  %7s\n", "phase", "calls", "fail", "wait",
                 "probe queued", "io thread queued", "daemon queued (all)", "daemon's part", "lower");

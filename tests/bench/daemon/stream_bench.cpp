@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "viewer failed: %s\n", v->seen().error_text.c_str());
           return 1;
         }
-      // Snapshots and connection set-up are not what is measured.
+      // Keyframes and connection set-up are not what is measured.
       std::this_thread::sleep_for(settle);
       std::vector<std::uint64_t> bytes0;
       for (auto& v : viewers) {
@@ -123,8 +123,8 @@ int main(int argc, char** argv) {
       if (std::getenv("STREAM_BENCH_DEBUG"))
         for (auto& v : viewers) {
           const auto s = v->seen();
-          std::fprintf(stderr, "n=%d snapshots %llu frames %llu keepalives %llu seq %llu err %s\n", n,
-                       (unsigned long long)s.snapshots, (unsigned long long)s.frames, (unsigned long long)s.keepalives,
+          std::fprintf(stderr, "n=%d keyframes %llu frames %llu keepalives %llu seq %llu err %s\n", n,
+                       (unsigned long long)s.keyframes, (unsigned long long)s.frames, (unsigned long long)s.keepalives,
                        (unsigned long long)s.sequence, s.error_text.c_str());
         }
       for (std::size_t i = 0; i < viewers.size(); ++i) {

@@ -160,12 +160,12 @@ std::vector<BodyBytes> split_state(std::span<const std::byte> bytes) {
       p.array(sizeof(Grab<S>), {});
       p.value<std::uint32_t>(), p.value<std::uint8_t>();
     }
-    for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // snapshot
+    for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // checkpoint
     per_block(body, p.array(sizeof(CheckpointGrid<S>), {blocks}), sizeof(CheckpointGrid<S>));
-    for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's snapshot rest shape
+    for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's checkpoint rest shape
     columns(body, p.array(s, {cols * n, 0}), s, n);
     p.value<double>(), p.value<double>(), p.value<std::uint64_t>();  // energies, blow-ups
-    p.value<int>(), p.value<int>(), p.value<bool>();                 // boost, snapshot age, input
+    p.value<int>(), p.value<int>(), p.value<bool>();                 // boost, checkpoint age, input
   }
   return out;
 }
