@@ -48,7 +48,7 @@ class History {
   explicit History(std::uint64_t budget_bytes, std::size_t max_strokes = kMaxStrokes)
       : budget_(budget_bytes), max_strokes_(max_strokes) {}
 
-  // Recording, as the replica's world reports its edits.
+  // Recording, as the replica's world reports its strokes.
   void opened(std::uint32_t scene, std::uint32_t body, std::string_view mesh, std::uint64_t tick);
   void captured(std::uint32_t body, std::uint32_t block, std::uint32_t vertices, std::span<const std::byte> image);
   void closed(std::uint32_t body, const sim::StrokeSummary& edit);

@@ -1,4 +1,4 @@
-// sculpt-view against a real sculptd (a replayed session, no devices): a
+// sculpt-view against a real sculptd (a replayed recording, no devices): a
 // clear message when no daemon listens; two viewers of one paused daemon
 // draw the same image, and it shows the sculpt (not the rest shape); a
 // viewer waits for a daemon, and reconnects when it restarts.
@@ -58,7 +58,7 @@ TEST_F(Live, SaysClearlyWhenNoDaemonListens) {
 }
 
 TEST_F(Live, TwoViewersOfOnePausedDaemonDrawTheSameSculpt) {
-  auto daemon = start_daemon("replay:" + kData + "/sessions/push.jsonl");
+  auto daemon = start_daemon("replay:" + kData + "/recordings/push.jsonl");
   // Let the left tool press into the ball (5 s of simulated time, however
   // slow a sanitized daemon runs), then freeze the state.
   const auto deadline = std::chrono::steady_clock::now() + 120s;
@@ -110,7 +110,7 @@ TEST_F(Live, WaitsForTheDaemonAndReconnectsWhenItRestarts) {
   }
   ASSERT_TRUE(view.out().wait_for("the daemon went away", 30s)) << view.out().text();
   const std::size_t before = view.out().text().find("the daemon went away");
-  auto second = start_daemon("replay:" + kData + "/sessions/push.jsonl");
+  auto second = start_daemon("replay:" + kData + "/recordings/push.jsonl");
   ASSERT_TRUE(view.out().wait_for("connected to " + socket_, 30s)) << view.out().text();
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   while (view.out().text().find("keyframe:", before) == std::string::npos && std::chrono::steady_clock::now() < deadline) {

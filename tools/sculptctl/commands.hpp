@@ -32,7 +32,7 @@ struct InspectArgs {
 };
 void inspect(const InspectArgs& args);
 
-// `record FILE`: the joysticks into a session file (record.cpp).
+// `record FILE`: the joysticks into a recording (record.cpp).
 struct RecordArgs {
   std::string file;
   double duration = 0;        // 0: until a signal
@@ -44,7 +44,7 @@ struct RecordArgs {
 };
 void record(const RecordArgs& args);
 
-// `replay FILE`: a session through uinput (replay.cpp).
+// `replay FILE`: a recording through uinput (replay.cpp).
 struct ReplayArgs {
   std::string file;
   double speed = 1.0;

@@ -44,8 +44,8 @@ void add_commands(CLI::App& app, Args& a) {
                   "weld distance as a fraction of the bounding-box diagonal (default 1e-5)");
   cmd->callback([&a] { inspect(a.inspect); });
 
-  cmd = app.add_subcommand("record", "record the joysticks and gamepads into a session file");
-  cmd->add_option("FILE", a.record.file, "session file to write (JSON Lines, docs/session-format.md)")->required();
+  cmd = app.add_subcommand("record", "record the joysticks and gamepads into a recording");
+  cmd->add_option("FILE", a.record.file, "recording to write (JSON Lines, docs/recording-format.md)")->required();
   cmd->add_option("--duration", a.record.duration, "seconds to record (default: until Ctrl-C)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--wait-devices", a.record.wait_for, "wait until this many devices are present before starting");
@@ -58,8 +58,8 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->callback([&a] { record(a.record); });
 
   cmd = app.add_subcommand(
-      "replay", "play a recorded session through uinput (virtual devices that answer FF; needs /dev/uinput)");
-  cmd->add_option("FILE", a.replay.file, "session file (docs/session-format.md)")->required();
+      "replay", "play a recording through uinput (virtual devices that answer FF; needs /dev/uinput)");
+  cmd->add_option("FILE", a.replay.file, "recording (docs/recording-format.md)")->required();
   cmd->add_option("--speed", a.replay.speed, "playback speed factor (default 1)")->check(CLI::PositiveNumber);
   cmd->add_option("--settle", a.replay.settle,
                   "seconds between creating the devices and the first frame, for clients to open them (default 1)")

@@ -1,6 +1,6 @@
 // The status-latency benchmark: how long another client's status call waits
 // while sculptd serves what a client can throw at it. sculptd runs the 50k
-// scene with the benchmark session sculpting it; a probe (status_probe.hpp)
+// scene with the benchmark recording sculpting it; a probe (status_probe.hpp)
 // asks for the status every 10 ms from its own connection, and each phase
 // does one thing meanwhile:
 //   idle        nothing more
@@ -12,7 +12,7 @@
 //               as fault_e2e's), seconds of building off the io loop
 //   bursts      garbage, 200 connect/close at once, 20 silent connections
 //   viewers     six viewers at 60 fps, three of them not reading
-// Each phase runs on a fresh daemon (the session at the same point), and per
+// Each phase runs on a fresh daemon (the recording at the same point), and per
 // phase it prints the calls, p50/p99/max of the wait, and whose it was: the
 // probe thread's and the daemon's io thread's run-queue time during the call
 // (/proc/.../schedstat field 2), all the daemon's threads' summed, and the
@@ -21,7 +21,7 @@
 // for a CPU while the io thread works, too) and is printed apart.
 // Numbers only: it fails only if the daemon fails or a call is not answered.
 //
-//   status_bench SCENE SESSION [--seconds S] [--rounds N] [--phases a,b,..]
+//   status_bench SCENE RECORDING [--seconds S] [--rounds N] [--phases a,b,..]
 //                [--sculptd PATH]... [--realtime 0|1]
 // Several --sculptd alternate phase by phase (a before/after comparison in
 // one run, on the same machine at the same time). STATUS_BENCH_DEBUG=1 prints
@@ -55,7 +55,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::string scene, session;
+  std::string scene, recording;
   double seconds = 6;
   int rounds = 2;
   std::vector<std::string> phases = {"idle", "flood", "flood-held", "load", "bursts", "viewers"};
@@ -185,13 +185,13 @@ void print_row(const std::string& label, const Samples& samples) {
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
-                 "usage: %s SCENE SESSION [--seconds S] [--rounds N] [--phases a,b,..] [--sculptd PATH]... "
+                 "usage: %s SCENE RECORDING [--seconds S] [--rounds N] [--phases a,b,..] [--sculptd PATH]... "
                  "[--realtime 0|1]\n",
                  argv[0]);
     return 2;
   }
   Options o;
-  o.scene = argv[1], o.session = argv[2];
+  o.scene = argv[1], o.recording = argv[2];
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--seconds") o.seconds = std::stod(v);
@@ -218,14 +218,14 @@ int main(int argc, char** argv) {
         for (const std::string& binary : o.binaries) {
           const std::string socket = (dir / "sculptd.sock").string();
           ::unlink(socket.c_str());
-          std::vector<std::string> args = {"--scene", o.scene, "--input", "replay:" + o.session, "--socket", socket,
+          std::vector<std::string> args = {"--scene", o.scene, "--input", "replay:" + o.recording, "--socket", socket,
                                            "--log-level", "notice"};
           if (o.realtime) args.push_back("--realtime");
           Sculptd d(args, binary);
           if (!d.wait_for_log("sculptd ready", 120s)) throw Failed("sculptd did not start:\n" + d.log());
           measure_keyframe(socket, d.pid(), keyframe_cost[binary]);
           StatusProbe probe(socket, d.pid());
-          // The first calls connect; the session gets going.
+          // The first calls connect; the recording gets going.
           std::this_thread::sleep_for(1s);
           probe.take_samples();
           run_phase(phase, socket, o, dir, rng);
@@ -248,7 +248,7 @@ int main(int argc, char** argv) {
   }
   fs::remove_all(dir);
   std::printf("status_bench: %s + %s, a status call every 10 ms, %d rounds of %.0f s per phase%s\n", o.scene.c_str(),
-              o.session.c_str(), o.rounds, o.seconds, o.realtime ? ", sculptd --realtime" : "");
+              o.recording.c_str(), o.rounds, o.seconds, o.realtime ? ", sculptd --realtime" : "");
   std::printf("  ms, p50 p99 max of: the wait; the probe thread's run-queue time during it; the daemon io thread's;\n"
               "  all daemon threads' (summed); the daemon's part = wait - probe's - io thread's queueing; and the\n"
               "  largest wait - probe's - all daemon threads' queueing (a lower bound of the daemon's part)\n");

@@ -42,7 +42,7 @@ KeeperSettings settings(const fs::path& dir) {
   return s;
 }
 
-// The push session on the default scene, sculpted with a keeper that
+// The push recording on the default scene, sculpted with a keeper that
 // snapshots every 150 ms, run to rest and stopped: made once, copied by
 // each test.
 struct Made {
@@ -56,13 +56,13 @@ const Made& made() {
     Made m;
     m.dir = testing::fresh_dir("untrusted-made");
     JournalTap tap;
-    Rig rig(&tap, testing::session_path("push.jsonl"));
+    Rig rig(&tap, testing::recording_path("push.jsonl"));
     Keeper keeper(settings(m.dir), tap);
     keeper.start_anew();
     keeper.scene_started(rig.bundle(), std::make_shared<const scene::Scene>(rig.sim().scene), 0);
     keeper.start();
     rig.start_at(0);
-    while (!rig.session_done()) {
+    while (!rig.recording_done()) {
       rig.run(100);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));  // several snapshots on the way
     }
