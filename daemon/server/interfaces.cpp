@@ -93,8 +93,8 @@ class SessionImpl final : public proto::Session::Server {
     if (!error.empty()) return result(context.getResults().initResult(), error);
     return answer_when_paused(context.getResults().initResult(), false);
   }
-  kj::Promise<void> undo(UndoContext context) override { return edit(context, false); }
-  kj::Promise<void> redo(RedoContext context) override { return edit(context, true); }
+  kj::Promise<void> undo(UndoContext context) override { return move_history(context, false); }
+  kj::Promise<void> redo(RedoContext context) override { return move_history(context, true); }
   kj::Promise<void> history(HistoryContext context) override {
     const auto p = context.getParams();
     return answer([&] { server_.fill_history(context.getResults().initHistory(), p.getFrom(), p.getLimit()); });
@@ -152,12 +152,12 @@ class SessionImpl final : public proto::Session::Server {
     });
   }
   template <class Context>
-  kj::Promise<void> edit(Context context, bool redo) {
+  kj::Promise<void> move_history(Context context, bool redo) {
     if (!server_.admit(client_)) return closing();
     const std::uint32_t count = context.getParams().getCount();
-    if (const std::string why = server_.edit_refusal(client_, count); !why.empty())
+    if (const std::string why = server_.history_move_refusal(client_, count); !why.empty())
       return result(context.getResults().initResult(), why);
-    return server_.edit(client_, redo, count).then([context](EditOutcome o) mutable {
+    return server_.move_history(client_, redo, count).then([context](HistoryMoveOutcome o) mutable {
       auto r = context.getResults();
       fill(r.initResult(), o.error);
       r.setDone(o.done);

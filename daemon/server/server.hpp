@@ -67,8 +67,8 @@ struct ServerOptions {
   // Undo/redo: strokes one call may ask for (1 … this; else refused, naming
   // the count), and such calls of one connection being applied at once
   // (past it, refused until one answers).
-  std::uint32_t max_edit_count = 10000;
-  std::size_t max_pending_edits_per_client = 4;
+  std::uint32_t max_history_move_count = 10000;
+  std::size_t max_pending_history_moves_per_client = 4;
   // history: at most this many strokes per call (a page; History.omitted
   // and newer count the rest; 16384 entries are about 2 MB).
   std::size_t max_history_entries = 16384;
@@ -155,11 +155,11 @@ class Server {
   // Resolves true once the sim thread reports `paused`, false after `tries` ms.
   kj::Promise<bool> until_paused(bool paused, int tries = 2000);
   // Undo (redo = false) or redo `count` strokes for a client, once
-  // edit_refusal has said nothing against it ("": go ahead; else the
+  // history_move_refusal has said nothing against it ("": go ahead; else the
   // answer: the count out of range, too many such calls in flight). A
   // failure of the daemon's promise becomes an outcome with its error.
-  std::string edit_refusal(std::uint64_t client, std::uint32_t count) const;
-  kj::Promise<EditOutcome> edit(std::uint64_t client, bool redo, std::uint32_t count);
+  std::string history_move_refusal(std::uint64_t client, std::uint32_t count) const;
+  kj::Promise<HistoryMoveOutcome> move_history(std::uint64_t client, bool redo, std::uint32_t count);
   void fill_history(proto::History::Builder out, std::uint32_t from, std::uint32_t limit);
   // An export for a client, once export_refusal has said nothing against it
   // (too many exports). start_export takes a place for it, asks the daemon

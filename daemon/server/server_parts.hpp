@@ -53,7 +53,7 @@ struct Server::Client {
   std::int64_t connected_ns = 0;
   std::int64_t answered_ns = 0;  // a refusal: when its answer was written (0: not yet)
   bool closing = false;  // over a limit: dropped at the next turn of the loop
-  std::size_t pending_edits = 0;  // undo/redo calls being applied
+  std::size_t pending_history_moves = 0;  // undo/redo calls being applied
   int fd = -1;           // the socket (owned by `stream`), to see whether the peer is gone
   kj::Own<kj::AsyncIoStream> stream;
   kj::Own<CheckedMessageStream> messages;

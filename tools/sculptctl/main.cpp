@@ -26,7 +26,7 @@ struct Args {
   DaemonArgs status, devices, reset, pause, resume;
   SaveArgs save;
   LoadArgs load;
-  EditArgs undo, redo;
+  HistoryMoveArgs undo, redo;
   HistoryArgs history;
   ExportArgs exported;
   HapticsArgs haptics;
@@ -89,12 +89,12 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->callback([&a] { load(a.load); });
 
   for (auto [name, help, args, what] :
-       {std::tuple{"undo", "undo the last N strokes (the daemon's history)", &a.undo, Edit::undo},
-        std::tuple{"redo", "redo the last N undone strokes", &a.redo, Edit::redo}}) {
+       {std::tuple{"undo", "undo the last N strokes (the daemon's history)", &a.undo, HistoryMove::undo},
+        std::tuple{"redo", "redo the last N undone strokes", &a.redo, HistoryMove::redo}}) {
     cmd = app.add_subcommand(name, help);
-    cmd->add_option("N", args->count, "how many strokes (default 1)")->check(CLI::Range(1u, kMaxEditCount));
+    cmd->add_option("N", args->count, "how many strokes (default 1)")->check(CLI::Range(1u, kMaxHistoryMoveCount));
     add_daemon_options(*cmd, args->daemon);
-    cmd->callback([args = args, what = what] { edit(*args, what); });
+    cmd->callback([args = args, what = what] { move_history(*args, what); });
   }
 
   cmd = app.add_subcommand("history", "the daemon's strokes (tools, mesh, ticks, vertices, undo data) and budget");

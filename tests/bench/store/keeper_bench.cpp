@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
           rig.tick();
           worst_input = std::max(worst_input, rig.input_ns());
         }
-        const sd::EditResult r = p.wait(ws);
+        const sd::HistoryMoveResult r = p.wait(ws);
         if (!r.error.empty()) {
           std::fprintf(stderr, "%s: %s\n", undo ? "undo" : "redo", r.error.c_str());
           break;

@@ -52,7 +52,7 @@ struct Sculpt {
 };
 
 // Ticks the rig until the promise is fulfilled (the keeper needs the sim
-// thread's ticks to apply an edit).
+// thread's ticks to apply a history move).
 template <class T>
 T tick_until(kj::Promise<T>& p, kj::WaitScope& ws, Rig& rig) {
   for (int i = 0; i < 200000 && !p.poll(ws); ++i) {
@@ -230,7 +230,7 @@ TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   const std::uint64_t sculpted = s.rig.sim().world->hash();
 
   auto undo = s.keeper.undo(1000);
-  const EditResult undone = tick_until(undo, ws, s.rig);
+  const HistoryMoveResult undone = tick_until(undo, ws, s.rig);
   ASSERT_EQ(undone.error, "");
   EXPECT_GT(undone.done, 0u);
   s.rig.run(50);
@@ -238,7 +238,7 @@ TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   for (const StrokeInfo& st : s.keeper.history().strokes) EXPECT_TRUE(st.undone);
 
   auto redo = s.keeper.redo(1000);
-  const EditResult redone = tick_until(redo, ws, s.rig);
+  const HistoryMoveResult redone = tick_until(redo, ws, s.rig);
   ASSERT_EQ(redone.error, "");
   EXPECT_EQ(redone.done, undone.done);
   s.rig.run(50);
@@ -271,7 +271,7 @@ TEST(Keeper, UndoWorksAfterARecovery) {
   kj::EventLoop loop;
   kj::WaitScope ws(loop);
   auto undo = keeper.undo(1000);
-  const EditResult undone = tick_until(undo, ws, rig);
+  const HistoryMoveResult undone = tick_until(undo, ws, rig);
   ASSERT_EQ(undone.error, "");
   rig.run(50);
   EXPECT_EQ(rig.sim().world->hash(), untouched);

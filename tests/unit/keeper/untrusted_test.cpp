@@ -581,7 +581,7 @@ TEST(KeeperUntrusted, AnAttachWithABindingNoDeviceHasStopsTheReplayThere) {
 std::vector<std::byte> stroke_blob(const Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);
-  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.edit), w.value(s.vertices);
+  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.summary), w.value(s.vertices);
   w.value(static_cast<std::uint8_t>(s.undone)), w.value(static_cast<std::uint64_t>(s.image_bytes));
   w.array(std::span<const char>(s.mesh.data(), s.mesh.size()));
   w.array(s.blocks), w.array(s.images);
@@ -603,7 +603,7 @@ History_ replace_history(const fs::path& dir, std::size_t count, std::uint32_t b
   st.scene = s.meta.at("scene").get<std::uint32_t>();
   st.body = body;
   st.mesh = load_bundle(*opened.bundle).meshes[body].name;
-  st.edit = {1, 0, 2, 1};
+  st.summary = {1, 0, 2, 1};
   st.image_bytes = w.block_image_bytes(body);
   for (std::uint32_t k = 0; k < blocks; ++k) {
     st.blocks.push_back(k);

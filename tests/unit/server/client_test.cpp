@@ -116,7 +116,7 @@ TEST(MeshMirror, AFrameThatDoesNotFitTheKeyframeThrowsAndChangesNothing) {
     d[0].initIndices(1).set(0, 0);
     set_floats(d[0].initPositions(12), {100, 100, 100});
     d[1].setMeshId(3);
-    edit(d[1]);
+    change(d[1]);
     EXPECT_THROW(m.apply(f.asReader()), MirrorError);
     EXPECT_EQ(m.meshes()[1].positions[0], 5.0f) << "a bad frame changed the mirror";
   };
