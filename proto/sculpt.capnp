@@ -87,7 +87,9 @@ struct Tool {
   deviceSlot @10 :Int32 = -1;      # which device slot drives it (-1: none)
 }
 
-struct Snapshot {
+# A viewer's keyframe: the whole state, when it joins and after a scene load
+# or reset. The explicit ID is the one this struct had as `Snapshot`.
+struct Keyframe @0x826e371020de7da3 {
   sequence @0 :UInt64;             # the sim tick it shows; frames continue from it
   simTimeNs @1 :UInt64;
   meshes @2 :List(Mesh);
@@ -264,7 +266,7 @@ interface ExportReader {
 # control: while a viewer has not taken its last frame the daemon does not
 # queue more, it coalesces (the next frame carries the latest state).
 interface Viewer {
-  snapshot @0 (snapshot :Snapshot) -> stream;
+  keyframe @0 (keyframe :Keyframe) -> stream;
   frame @1 (frame :DeltaFrame) -> stream;
 }
 
@@ -278,8 +280,8 @@ interface Session {
   devices @1 () -> (devices :List(Device));
   # The whole current state, once (sculptctl save exports it on the client side,
   # with the user's own permissions, in the format its file name asks for).
-  snapshot @2 () -> (snapshot :Snapshot);
-  # Starts a stream to `viewer`: a snapshot, then delta frames at most
+  keyframe @2 () -> (keyframe :Keyframe);
+  # Starts a stream to `viewer`: a keyframe, then delta frames at most
   # `maxFps` a second carrying vertices that moved more than `toleranceM`
   # (metres) since what this viewer last received. Dropping the returned
   # capability (or disconnecting) ends it.

@@ -1,13 +1,13 @@
 #include "devices/input_source.hpp"
 
+#include "input/recording.hpp"
 #include "input/replay_source.hpp"
-#include "input/session.hpp"
 #include "log/log.hpp"
 
 namespace sculpt::daemon {
 namespace {
 
-constexpr std::size_t kReplayReadAhead = 4096;  // messages read from the session before the io thread takes them
+constexpr std::size_t kReplayReadAhead = 4096;  // messages read from the recording before the io thread takes them
 
 }  // namespace
 
@@ -31,7 +31,7 @@ InputSource::~InputSource() = default;
 void InputSource::open_replay(const InputSpec& spec, double rate_hz, DeviceHub& hub) {
   // Every line checked before the first tick (one at a time: bounded
   // memory), so a bad line deep in the file is named now, not mid-run.
-  input::check_session(spec.replay);
+  input::check_recording(spec.replay);
   input::ReplaySource source(spec.replay, rate_hz,
                              [&hub](std::uint8_t slot, const input::DeviceInfo& info) { return hub.bind(slot, info); });
   source.start(1);

@@ -1,4 +1,4 @@
-// Where the input comes from: a recorded session replayed (its frames read
+// Where the input comes from: a recording replayed (its frames read
 // ahead on the feed's own thread and queued as far ahead as the ring holds)
 // or the live devices (the DeviceManager, its fds watched on the kj loop).
 // Either way the DeviceHub binds the devices and takes their messages.
@@ -22,7 +22,7 @@ namespace sculpt::daemon {
 class InputSource {
  public:
   // Opens what `spec` names; throws naming what is wrong (a bad
-  // session line, no devices subsystem). A replay's attaches and first
+  // recording line, no devices subsystem). A replay's attaches and first
   // frames are queued here, before the first tick.
   InputSource(const InputSpec& spec, InputClock clock, double rate_hz, DeviceHub& hub, kj::UnixEventPort& port);
   ~InputSource();

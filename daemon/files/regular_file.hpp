@@ -1,4 +1,4 @@
-// Reading the files a user names (scenes, meshes, sessions, configs) without
+// Reading the files a user names (scenes, meshes, recordings, configs) without
 // letting the name hang or flood the reader. Only a regular file is read: a
 // FIFO would block until someone writes to it, /dev/zero and /dev/urandom
 // never end, /dev/null reads as an empty file. The file is opened with

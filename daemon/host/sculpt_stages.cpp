@@ -17,7 +17,7 @@ SculptStages::SculptStages(simloop::ToolDriver driver, haptics::FeedbackBoard& b
 }
 
 void SculptStages::input(std::uint64_t tick, std::span<sim::Tool> tools) {
-  if (tap_) write_edits(tick);
+  if (tap_) write_history_moves(tick);
   const std::size_t n = tap_ ? take_messages(tick) : mapper_.drain(ring_, tick);
   if (n) applied_.store(applied_.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
   driver_.update_from(mapper_.controls(), tools);
@@ -26,7 +26,7 @@ void SculptStages::input(std::uint64_t tick, std::span<sim::Tool> tools) {
   redo_presses_.store(mapper_.redo_presses(), std::memory_order_relaxed);
 }
 
-// ControlMapper::drain, recording each message; one the journal has no room
+// ControlMapper::drain, journaling each message; one the journal has no room
 // for waits in the ring (applied late rather than unrecorded).
 std::size_t SculptStages::take_messages(std::uint64_t tick) {
   std::size_t n = 0;
@@ -50,7 +50,7 @@ std::size_t SculptStages::take_messages(std::uint64_t tick) {
 
 // Whether the images fit this world, checked before any is written (what
 // World::exchange_block_image would throw for, so that it never does here).
-bool SculptStages::fits(const EditImages& e) const {
+bool SculptStages::fits(const HistoryMoveImages& e) const {
   if (e.body >= world_->body_count()) return false;
   const std::size_t size = world_->block_image_bytes(e.body);
   if (e.images.size() != e.blocks.size() * size) return false;
@@ -62,10 +62,10 @@ bool SculptStages::fits(const EditImages& e) const {
 // Undo and redo: the keeper's images into the world, before the tick's
 // inputs (the replica writes them at the same point). Images made on
 // another scene are refused, and that is recorded too.
-void SculptStages::write_edits(std::uint64_t tick) {
-  while (const EditImages* const* next = tap_->edits().peek()) {
+void SculptStages::write_history_moves(std::uint64_t tick) {
+  while (const HistoryMoveImages* const* next = tap_->history_moves().peek()) {
     if (!tap_->room_for(1)) return;
-    const EditImages& e = **next;
+    const HistoryMoveImages& e = **next;
     // No blocks: the keeper's mark that closes open strokes, recorded at this tick.
     bool written = world_ && e.scene == tap_->scene.load(std::memory_order_relaxed) && (e.blocks.empty() || fits(e));
     if (written) {
@@ -74,12 +74,12 @@ void SculptStages::write_edits(std::uint64_t tick) {
         world_->exchange_block_image(e.body, e.blocks[i], e.images.subspan(i * size, size));
     }
     JournalEntry j;
-    j.kind = JournalEntry::Kind::edit;
+    j.kind = JournalEntry::Kind::history_move;
     j.refused = !written;
     j.tick = tick;
-    j.edit = e.id;
+    j.number = e.id;
     tap_->record(j);
-    tap_->edits().pop();
+    tap_->history_moves().pop();
   }
 }
 

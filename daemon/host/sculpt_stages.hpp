@@ -42,7 +42,7 @@ class SculptStages final : public simloop::TickStages {
   void paused_changed(std::uint64_t tick, bool paused) override;
 
   // Where what the sim thread does is recorded, and the world stroke images
-  // are written into (both nullptr: no journal, no edits). Set before the
+  // are written into (both nullptr: no journal, no history moves). Set before the
   // sim thread starts.
   void set_journal(JournalTap* tap, sim::World<float>* world) {
     tap_ = tap;
@@ -64,8 +64,8 @@ class SculptStages final : public simloop::TickStages {
   void set_published(server::PublishedState* state) { published_ = state; }
 
  private:
-  void write_edits(std::uint64_t tick);
-  bool fits(const EditImages& e) const;
+  void write_history_moves(std::uint64_t tick);
+  bool fits(const HistoryMoveImages& e) const;
   std::size_t take_messages(std::uint64_t tick);
 
   simloop::ToolDriver driver_;

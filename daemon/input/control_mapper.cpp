@@ -120,7 +120,7 @@ void ControlMapper::apply_event(DeviceState& d, const InputEvent& e) {
       if (b.axes[i].code != e.code) continue;
       // No second fuzz filter here: the kernel already defuzzed live values,
       // and recorded ones were recorded defuzzed. Filtering again would make
-      // an in-process replay differ from the same session through uinput.
+      // an in-process replay differ from the same recording through uinput.
       d.raw[i] = e.value;
       d.value[i] = b.axes[i].calibration.normalize(e.value) * b.axes[i].scale;
     }

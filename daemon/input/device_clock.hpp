@@ -2,7 +2,7 @@
 // says, not on the tick it arrived. Each device's clock is anchored at its
 // first frame (that frame applies `delay` after the current tick); later
 // frames keep their recorded spacing, rounded exactly as ReplaySource
-// rounds, so a session replayed through uinput lands on the ticks
+// rounds, so a recording replayed through uinput lands on the ticks
 // `--input replay:` gives it. Ticks never go backwards per device.
 #pragma once
 

@@ -1,6 +1,6 @@
 // What sculptd knows about an input device: identity, axes with their
 // absinfo, buttons, force-feedback bits, and what kind of controller it is.
-// Filled from libevdev (live devices) or from a session file (replay).
+// Filled from libevdev (live devices) or from a recording (replay).
 #pragma once
 
 #include <cstdint>

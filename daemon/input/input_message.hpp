@@ -75,7 +75,7 @@ struct DeviceBinding {
 
 // "" for a binding the io thread could have made (counts within the arrays,
 // flags and actions one of their values, finite scales, dead zones in
-// [0, 0.95]); else what is wrong. A binding read from a store or a session
+// [0, 0.95]); else what is wrong. A binding read from a store or a recording
 // file is checked before the mapper uses it. Looks at flags as bytes.
 std::string binding_error(const DeviceBinding& binding);
 

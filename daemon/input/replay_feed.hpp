@@ -1,5 +1,5 @@
 // Reads a replay on its own thread, so the io thread never waits on the
-// session file: the reader runs `ahead` messages in front of what the io
+// recording: the reader runs `ahead` messages in front of what the io
 // thread has taken, and the io thread moves them into the simulation's
 // input ring (memory only) whenever it likes.
 //
@@ -34,20 +34,20 @@ class ReplayFeed {
   // thread (the attaches, whose binder is not thread-safe). Reads the first
   // `ahead` messages right here, so a pump() straight after has them (the
   // first ticks' frames must be queued before the simulation starts; a bad
-  // line among them throws SessionError), then goes on on its thread.
+  // line among them throws RecordingError), then goes on on its thread.
   ReplayFeed(ReplaySource source, std::size_t ahead);
   ~ReplayFeed();  // stops the reader
   ReplayFeed(const ReplayFeed&) = delete;
   ReplayFeed& operator=(const ReplayFeed&) = delete;
 
-  const SessionHeader& header() const { return header_; }
+  const RecordingHeader& header() const { return header_; }
 
   // Moves read messages into `ring` until only `keep_free` slots are left
   // or nothing is read yet. Returns how many. One consumer thread only.
   // (The daemon keeps a slot per device free: a scene swap re-sends every
   // device's attach ahead of what was queued, into a ring of the same size.)
   std::size_t pump(concurrency::SpscRing<InputMessage>& ring, std::size_t keep_free = 0);
-  // The reader reached the end of the session (or an error) and every
+  // The reader reached the end of the recording (or an error) and every
   // message it read has been pumped.
   bool finished() const;
   // Why the reader stopped early (a bad line, an I/O error), once it has and
@@ -57,7 +57,7 @@ class ReplayFeed {
  private:
   void read();
 
-  SessionHeader header_;
+  RecordingHeader header_;
   ReplaySource source_;
   concurrency::SpscRing<InputMessage> read_;
   std::optional<InputMessage> held_;     // taken from read_ but not yet into a full ring

@@ -9,7 +9,7 @@ namespace sculpt::input {
 ReplaySource::ReplaySource(const std::filesystem::path& file, double rate_hz, Binder binder)
     : reader_(file), rate_hz_(rate_hz), binder_(std::move(binder)) {
   if (!(rate_hz_ > 0.0) || !std::isfinite(rate_hz_))
-    throw SessionError(fmt::format("{}: replay rate must be a positive number of Hz", file.string()));
+    throw RecordingError(fmt::format("{}: replay rate must be a positive number of Hz", file.string()));
 }
 
 void ReplaySource::start(std::uint64_t start_tick) { start_tick_ = start_tick == 0 ? 1 : start_tick; }

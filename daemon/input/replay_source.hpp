@@ -1,8 +1,8 @@
-// Feeds a recorded session into the input pipeline with no devices at all
+// Feeds a recording into the input pipeline with no devices at all
 // (`sculptd --input replay:FILE`). Runs on the io thread: produces one attach
 // message per recorded device, then every frame with at_tick =
 // start_tick + round(t_us · rate / 1e6), so the simulation thread applies each
-// frame exactly on its tick whatever the io thread's timing: the same session
+// frame exactly on its tick whatever the io thread's timing: the same recording
 // gives bit-identical meshes.
 #pragma once
 
@@ -13,7 +13,7 @@
 
 #include "concurrency/spsc_ring.hpp"
 #include "input/input_message.hpp"
-#include "input/session.hpp"
+#include "input/recording.hpp"
 
 namespace sculpt::input {
 
@@ -28,10 +28,10 @@ class ReplaySource {
   // Resolves a device's binding (ToolRouter::attach, usually).
   using Binder = std::function<DeviceBinding(std::uint8_t slot, const DeviceInfo& info)>;
 
-  // Opens the session (SessionError on a bad header). At most kMaxDevices devices.
+  // Opens the recording (RecordingError on a bad header). At most kMaxDevices devices.
   ReplaySource(const std::filesystem::path& file, double rate_hz, Binder binder);
 
-  const SessionHeader& header() const { return reader_.header(); }
+  const RecordingHeader& header() const { return reader_.header(); }
 
   // Fixes the tick of t_us = 0; call before the first next()/pump().
   void start(std::uint64_t start_tick);
@@ -41,7 +41,7 @@ class ReplaySource {
   // longer than kMaxFrameEvents become several frames on the same tick.
   std::optional<InputMessage> next();
 
-  // Pushes messages into the ring until it is full or the session ends, but
+  // Pushes messages into the ring until it is full or the recording ends, but
   // none due later than `horizon_tick` (0: no limit). Returns how many.
   std::size_t pump(concurrency::SpscRing<InputMessage>& ring, std::uint64_t horizon_tick = 0);
 
@@ -50,12 +50,12 @@ class ReplaySource {
   std::uint64_t last_tick() const { return last_tick_; }
 
  private:
-  SessionReader reader_;
+  RecordingReader reader_;
   double rate_hz_;
   Binder binder_;
   std::uint64_t start_tick_ = 1;
   std::size_t attached_ = 0;
-  std::optional<SessionFrame> frame_;   // being split
+  std::optional<RecordingFrame> frame_;   // being split
   std::size_t frame_pos_ = 0;
   std::optional<InputMessage> pending_; // produced but not yet pushed
   bool finished_ = false;

@@ -27,7 +27,7 @@ void History::opened(std::uint32_t scene, std::uint32_t body, std::string_view m
   o.stroke.scene = scene;
   o.stroke.body = body;
   o.stroke.mesh = mesh;
-  o.stroke.edit.first_tick = tick;
+  o.stroke.summary.first_tick = tick;
   if (Open* was = open_of(body)) *was = std::move(o);  // the world closes before it opens again
   else open_.push_back(std::move(o));
 }
@@ -45,13 +45,13 @@ void History::captured(std::uint32_t body, std::uint32_t block, std::uint32_t ve
   s.vertices += vertices;
 }
 
-void History::closed(std::uint32_t body, const sim::StrokeSummary& edit) {
+void History::closed(std::uint32_t body, const sim::StrokeSummary& summary) {
   Open* o = open_of(body);
   if (!o) return;
   Stroke s = std::move(o->stroke);
   open_.erase(open_.begin() + (o - open_.data()));
   if (s.blocks.empty()) return;  // a tool passed near and changed nothing
-  s.edit = edit;
+  s.summary = summary;
   s.number = next_number_++;
   used_ += s.bytes();
   changed_.push_back(s.number);

@@ -1,4 +1,4 @@
-// The strokes of a sculpt, for undo and redo. A stroke is one edit of one
+// The strokes of a sculpt, for undo and redo. A stroke is one working of one
 // mesh (sim/strokes.hpp: from a tool's onset near it to its release and rest)
 // with the image of every block it changed. Undo and redo are the same
 // swap (the world takes the images, the images take what the world had),
@@ -28,7 +28,7 @@ struct Stroke {
   std::uint32_t scene = 0;   // the keeper's scene number
   std::uint32_t body = 0;
   std::string mesh;          // the body's name in its scene
-  sim::StrokeSummary edit;     // global ticks
+  sim::StrokeSummary summary;  // global ticks
   std::uint64_t vertices = 0;
   bool undone = false;
   std::vector<std::uint32_t> blocks;
@@ -48,10 +48,10 @@ class History {
   explicit History(std::uint64_t budget_bytes, std::size_t max_strokes = kMaxStrokes)
       : budget_(budget_bytes), max_strokes_(max_strokes) {}
 
-  // Recording, as the replica's world reports its edits.
+  // Kept up to date as the replica's world reports its strokes.
   void opened(std::uint32_t scene, std::uint32_t body, std::string_view mesh, std::uint64_t tick);
   void captured(std::uint32_t body, std::uint32_t block, std::uint32_t vertices, std::span<const std::byte> image);
-  void closed(std::uint32_t body, const sim::StrokeSummary& edit);
+  void closed(std::uint32_t body, const sim::StrokeSummary& summary);
 
   // The strokes `count` undos (newest done first) or redos (oldest undone
   // first) would swap, or why none can. `scene`: the one running now.

@@ -25,14 +25,14 @@ struct JournalEntry {
     message,  // `message` applied before the tick's step
     pause,    // the loop paused before running `tick`
     resume,   // ...and resumed
-    edit,     // stroke images `edit` written before the tick's step (undo/redo)
-    scene,    // the io thread swapped in scene `edit` (the keeper's number); `tick` is its first
+    history_move,  // stroke images `number` written before the tick's step (undo/redo)
+    scene,    // the io thread swapped in scene `number` (the keeper's number); `tick` is its first
     reached,  // the keeper's mark on disk: the sim thread had finished `tick` and every tick before
   };
   Kind kind = Kind::message;
-  bool refused = false;  // edit: not written (made on another scene)
+  bool refused = false;  // history_move: not written (made on another scene)
   std::uint64_t tick = 0;
-  std::uint32_t edit = 0;
+  std::uint32_t number = 0;  // history_move: the keeper's request; scene: the scene's
   std::int64_t wall_ns = 0;  // reached: when it was committed (CLOCK_REALTIME)
   input::InputMessage message{};
 };
@@ -40,8 +40,8 @@ struct JournalEntry {
 // Stroke images for the sim thread to write into its world (an undo or a
 // redo), prepared by the keeper; none (id 0): a mark the sim thread only
 // records, where the replica closes the strokes still open. Immutable and owned by the keeper until
-// the sim thread reports them written (JournalEntry::edit with `id`).
-struct EditImages {
+// the sim thread reports them written (JournalEntry::Kind::history_move with `id`).
+struct HistoryMoveImages {
   std::uint32_t id = 0;       // the keeper's request number
   std::uint32_t scene = 0;    // the scene they were made on: written only there
   std::uint32_t body = 0;
@@ -51,7 +51,7 @@ struct EditImages {
 
 class JournalTap {
  public:
-  explicit JournalTap(std::size_t capacity = 16384) : entries_(capacity), edits_(64) {}
+  explicit JournalTap(std::size_t capacity = 16384) : entries_(capacity), history_moves_(64) {}
 
   // Sim thread (or the io thread while no sim thread runs).
   bool record(const JournalEntry& e) { return entries_.try_push(e); }
@@ -68,15 +68,15 @@ class JournalTap {
 
   // Keeper thread.
   concurrency::SpscRing<JournalEntry>& entries() { return entries_; }
-  bool send_edit(const EditImages* e) { return edits_.try_push(e); }
+  bool send_history_move(const HistoryMoveImages* e) { return history_moves_.try_push(e); }
   // Sim thread.
-  concurrency::SpscRing<const EditImages*>& edits() { return edits_; }
+  concurrency::SpscRing<const HistoryMoveImages*>& history_moves() { return history_moves_; }
   // Sim thread: entries refused for want of room (should stay 0).
   std::atomic<std::uint64_t> held_back{0};
 
  private:
   concurrency::SpscRing<JournalEntry> entries_;
-  concurrency::SpscRing<const EditImages*> edits_;
+  concurrency::SpscRing<const HistoryMoveImages*> history_moves_;
   std::atomic<std::uint64_t> finished_{0};
 };
 

@@ -54,8 +54,8 @@ void encode_entry(const JournalEntry& e, std::vector<std::byte>& out) {
   w.value(static_cast<std::uint8_t>(e.kind));
   switch (e.kind) {
     case JournalEntry::Kind::message: encode_message(w, e.message); break;
-    case JournalEntry::Kind::edit: w.value(e.edit), w.value(static_cast<std::uint8_t>(e.refused)); break;
-    case JournalEntry::Kind::scene: w.value(e.edit); break;
+    case JournalEntry::Kind::history_move: w.value(e.number), w.value(static_cast<std::uint8_t>(e.refused)); break;
+    case JournalEntry::Kind::scene: w.value(e.number); break;
     case JournalEntry::Kind::reached: w.value(e.wall_ns); break;
     case JournalEntry::Kind::pause:
     case JournalEntry::Kind::resume: break;
@@ -72,11 +72,11 @@ std::optional<JournalEntry> decode_entry(std::span<const std::byte> bytes, std::
     if (kind > kLastKind) throw std::invalid_argument("unknown entry kind " + std::to_string(kind));
     e.kind = static_cast<JournalEntry::Kind>(kind);
     if (e.kind == JournalEntry::Kind::message) decode_message(r, e.message);
-    if (e.kind == JournalEntry::Kind::edit || e.kind == JournalEntry::Kind::scene) r.value(e.edit, "number");
+    if (e.kind == JournalEntry::Kind::history_move || e.kind == JournalEntry::Kind::scene) r.value(e.number, "number");
     if (e.kind == JournalEntry::Kind::reached) r.value(e.wall_ns, "commit time");
-    if (e.kind == JournalEntry::Kind::edit) {
+    if (e.kind == JournalEntry::Kind::history_move) {
       std::uint8_t refused = 0;
-      r.value(refused, "edit outcome");
+      r.value(refused, "history move outcome");
       e.refused = refused != 0;
     }
     if (!r.done()) throw std::invalid_argument("bytes left over");

@@ -69,7 +69,7 @@ void Keeper::collect() {
       job->scene = *e;
       {
         std::lock_guard lock(mutex_);
-        if (const auto it = incoming_.find(e->edit); it != incoming_.end()) job->bundle = it->second.bundle;
+        if (const auto it = incoming_.find(e->number); it != incoming_.end()) job->bundle = it->second.bundle;
         job->next_scene = next_scene_;
       }
       if (job->bundle) queue_job(std::move(job));

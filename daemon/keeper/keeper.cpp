@@ -35,10 +35,10 @@ void Keeper::scene_started(std::shared_ptr<const SceneBundle> bundle, std::share
     }
     e.kind = JournalEntry::Kind::scene;
     e.tick = first_tick;
-    e.edit = next_scene_++;
-    incoming_[e.edit] = Incoming{std::move(bundle), std::move(scene), first_tick};
+    e.number = next_scene_++;
+    incoming_[e.number] = Incoming{std::move(bundle), std::move(scene), first_tick};
   }
-  tap_.scene.store(e.edit, std::memory_order_relaxed);
+  tap_.scene.store(e.number, std::memory_order_relaxed);
   // No sim thread runs: the io thread is the producer now. A full ring (a
   // journal thread held up by the disk) is waited out, for a while: the
   // entry marks where the old scene's input ends.
@@ -116,17 +116,17 @@ kj::Promise<Result> Keeper::ask(std::unique_ptr<Request> r, std::shared_ptr<Resu
   return paf.promise.then([out] { return kj::mv(*out); });
 }
 
-kj::Promise<EditResult> Keeper::edit(bool undo, std::uint32_t count) {
+kj::Promise<HistoryMoveResult> Keeper::move_history(bool undo, std::uint32_t count) {
   auto r = std::make_unique<Request>();
   r->kind = undo ? Request::Kind::undo : Request::Kind::redo;
   r->count = count;
-  r->edited = std::make_shared<EditResult>();
-  auto out = r->edited;
+  r->moved = std::make_shared<HistoryMoveResult>();
+  auto out = r->moved;
   return ask(std::move(r), std::move(out));
 }
 
-kj::Promise<EditResult> Keeper::undo(std::uint32_t count) { return edit(true, count); }
-kj::Promise<EditResult> Keeper::redo(std::uint32_t count) { return edit(false, count); }
+kj::Promise<HistoryMoveResult> Keeper::undo(std::uint32_t count) { return move_history(true, count); }
+kj::Promise<HistoryMoveResult> Keeper::redo(std::uint32_t count) { return move_history(false, count); }
 
 kj::Promise<ExportResult> Keeper::export_sculpt() {
   auto r = std::make_unique<Request>();

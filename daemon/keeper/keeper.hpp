@@ -12,7 +12,7 @@
 //     bounded by store::Limits::max_pending_bytes);
 // and its replica thread, at SCHED_IDLE (it takes a CPU only when nothing
 // else wants it: the replica costs what the sim thread's world costs)
-//   - replays it on the replica (keeper/replica.hpp), whose edits become the
+//   - replays it on the replica (keeper/replica.hpp), whose strokes become the
 //     strokes of the History (keeper/history.hpp);
 //   - prepares snapshots of the replica (never of the real-time world) every
 //     snapshot_every, or once it has stepped replay_work_per_snapshot, and
@@ -116,7 +116,7 @@ struct Recovered {
   double seconds = 0;
 };
 
-struct EditResult {
+struct HistoryMoveResult {
   std::string error;
   std::uint32_t done = 0;
   std::uint64_t tick = 0;
@@ -202,8 +202,8 @@ class Keeper {
   void stop();
 
   // io thread.
-  kj::Promise<EditResult> undo(std::uint32_t count);
-  kj::Promise<EditResult> redo(std::uint32_t count);
+  kj::Promise<HistoryMoveResult> undo(std::uint32_t count);
+  kj::Promise<HistoryMoveResult> redo(std::uint32_t count);
   kj::Promise<ExportResult> export_sculpt();
   // The strokes numbered `from` and up, at most `limit` (1..kMaxHistoryPage;
   // 0: kMaxHistoryPage); from 0: the newest `limit`. Cheap: never waits on
@@ -242,11 +242,11 @@ class Keeper {
   void snapshot(const char* why);
   void serve(std::unique_ptr<Request> r);
   bool plan(InFlight& f);
-  void send_edits();
-  void edit_applied(const JournalEntry& e);
+  void send_history_moves();
+  void history_move_applied(const JournalEntry& e);
   void finish_requests();
   void publish_history();
-  kj::Promise<EditResult> edit(bool undo, std::uint32_t count);
+  kj::Promise<HistoryMoveResult> move_history(bool undo, std::uint32_t count);
   template <class Result>
   kj::Promise<Result> ask(std::unique_ptr<Request> r, std::shared_ptr<Result> out);
   std::optional<Recovered> recover_store(store::Store& store, const std::function<bool()>& stop_requested,

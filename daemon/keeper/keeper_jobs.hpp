@@ -40,11 +40,11 @@ struct Keeper::Request {
   // The result waits beside a void promise (as in host/worker.hpp): gcc 12
   // warns (-Wmaybe-uninitialized, a false positive) about any value inside
   // kj's cross-thread promise.
-  std::shared_ptr<EditResult> edited;
+  std::shared_ptr<HistoryMoveResult> moved;
   std::shared_ptr<ExportResult> exported;
   kj::Own<kj::CrossThreadPromiseFulfiller<void>> fulfiller;
-  void done(EditResult r) {
-    *edited = std::move(r);
+  void done(HistoryMoveResult r) {
+    *moved = std::move(r);
     fulfiller->fulfill();
   }
   void done(ExportResult r) {
@@ -83,12 +83,12 @@ struct Keeper::InFlight {
   struct Sent {
     std::vector<std::uint32_t> blocks;
     std::vector<std::byte> images;  // the sim thread's copy (it may scribble on it)
-    EditImages message;
+    HistoryMoveImages message;
   };
   std::deque<Sent> sent;  // a deque: the sim thread holds pointers into it
   std::size_t queued = 0, applied = 0;
   bool closing = false;   // sent: the mark that closes the open strokes (id 0); the plan follows
-  EditResult result;
+  HistoryMoveResult result;
 };
 
 // What `history` pages through: the strokes in chunks shared with the

@@ -24,7 +24,7 @@ void PadHistory::move(bool undo, std::uint32_t count, bool paused, Keeper& keepe
     log::info("{} (pad): the sculpt is paused; resume first", what);
     return;
   }
-  tasks.add((undo ? keeper.undo(count) : keeper.redo(count)).then([what](EditResult r) {
+  tasks.add((undo ? keeper.undo(count) : keeper.redo(count)).then([what](HistoryMoveResult r) {
     if (!r.error.empty()) log::info("{} (pad): {}", what, r.error);
     else log::info("{} (pad): {} stroke{} at tick {}", what, r.done, r.done == 1 ? "" : "s", r.tick);
   }));

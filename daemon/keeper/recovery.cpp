@@ -34,7 +34,7 @@ Stroke stroke_from(std::span<const std::byte> bytes) {
   Stroke s;
   std::uint8_t undone = 0;
   std::uint64_t image_bytes = 0;
-  r.value(s.number, "stroke"), r.value(s.scene, "stroke"), r.value(s.body, "stroke"), r.value(s.edit, "stroke");
+  r.value(s.number, "stroke"), r.value(s.scene, "stroke"), r.value(s.body, "stroke"), r.value(s.summary, "stroke");
   r.value(s.vertices, "stroke"), r.value(undone, "stroke"), r.value(image_bytes, "stroke");
   s.undone = undone != 0;
   s.image_bytes = image_bytes;
@@ -150,8 +150,8 @@ std::deque<Stroke> Keeper::read_strokes(store::Store& store, const store::Stored
     if (s.number <= previous || s.number >= next_stroke)
       refuse(fmt::format("stroke {} is out of order (after {}, before the next, {})", s.number, previous, next_stroke));
     if (!s.undone && undone) refuse(fmt::format("stroke {} is done after an undone one", s.number));
-    if (s.edit.first_tick > s.edit.last_tick || s.edit.last_tick > kMaxTick)
-      refuse(fmt::format("stroke {}: ticks {} to {}", s.number, s.edit.first_tick, s.edit.last_tick));
+    if (s.summary.first_tick > s.summary.last_tick || s.summary.last_tick > kMaxTick)
+      refuse(fmt::format("stroke {}: ticks {} to {}", s.number, s.summary.first_tick, s.summary.last_tick));
     previous = s.number;
     undone = s.undone;
   }
@@ -283,11 +283,11 @@ std::string Keeper::replay(const std::vector<store::Record>& journal, const std:
     if (!e)
       return fmt::format("a journal record of tick {} is unreadable ({}): the sculpt is recovered as it was before it",
                          tick, why);
-    if (e->kind == JournalEntry::Kind::scene && e->edit == number) continue;  // the snapshot's own scene start
+    if (e->kind == JournalEntry::Kind::scene && e->number == number) continue;  // the snapshot's own scene start
     if (e->kind == JournalEntry::Kind::scene)
       return fmt::format("the scene loaded at tick {} was not saved before the daemon ended: the sculpt is "
                          "recovered as it was before that load", e->tick);
-    // A mark, a message or an edit of tick t: the sim thread ran t. A pause
+    // A mark, a message or a history move of tick t: the sim thread ran t. A pause
     // or resume of tick t came before it.
     const bool before = e->kind == JournalEntry::Kind::pause || e->kind == JournalEntry::Kind::resume;
     target = std::max(target, before ? e->tick : e->tick + 1);

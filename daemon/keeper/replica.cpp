@@ -8,7 +8,7 @@
 
 namespace sculpt::daemon {
 
-// The world's edits, in global ticks, to the history.
+// The world's strokes, in global ticks, to the history.
 class Replica::Sink final : public sim::StrokeSink {
  public:
   Sink(Replica& r) : r_(r) {}
@@ -19,11 +19,11 @@ class Replica::Sink final : public sim::StrokeSink {
     const sim::Body<float>& b = r_.world_->body(body);
     r_.history_.captured(body, block, b.end_of(block) - b.begin_of(block), image);
   }
-  void closed(std::uint32_t body, const sim::StrokeSummary& edit) override {
-    sim::StrokeSummary g = edit;
-    g.first_tick = global(edit.first_tick);
-    g.release_tick = edit.release_tick ? global(edit.release_tick) : 0;
-    g.last_tick = global(edit.last_tick);
+  void closed(std::uint32_t body, const sim::StrokeSummary& summary) override {
+    sim::StrokeSummary g = summary;
+    g.first_tick = global(summary.first_tick);
+    g.release_tick = summary.release_tick ? global(summary.release_tick) : 0;
+    g.last_tick = global(summary.last_tick);
     r_.history_.closed(body, g);
   }
 
@@ -68,16 +68,16 @@ std::string Replica::apply(const JournalEntry& e) {
     case JournalEntry::Kind::message: mapper_.take(e.message, e.tick); return {};
     case JournalEntry::Kind::pause: paused_ = true; return {};
     case JournalEntry::Kind::resume: paused_ = false; return {};
-    case JournalEntry::Kind::edit: break;
+    case JournalEntry::Kind::history_move: break;
     case JournalEntry::Kind::scene:
     case JournalEntry::Kind::reached: return {};
   }
   if (e.refused) return {};
   world_->close_strokes();
-  if (e.edit == 0) return {};  // the keeper's mark: close the open strokes here
-  Stroke* s = history_.find(e.edit);
+  if (e.number == 0) return {};  // the keeper's mark: close the open strokes here
+  Stroke* s = history_.find(e.number);
   if (!s) return fmt::format("stroke {} is no longer in the history: its undo or redo at tick {} could not be replayed",
-                             e.edit, e.tick);
+                             e.number, e.tick);
   // The sim thread writes only a stroke of its own scene (it marks any other
   // refused); a journal from a file may say otherwise. (Strokes of this
   // scene read from a store were checked against its world at recovery.)

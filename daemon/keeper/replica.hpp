@@ -2,7 +2,7 @@
 // the same scene bundle and fed the journal (keeper/journal.hpp), it goes
 // through the same ticks and ends up with the same bits, later. It is what
 // the keeper snapshots (the sim thread never copies its world), what
-// records the strokes for undo (its world's edits go to the History), and
+// records the strokes for undo (its world's strokes go to the History), and
 // what recovery replays the journal on.
 #pragma once
 
@@ -46,7 +46,7 @@ class Replica {
   // Steps every tick before `tick`.
   void advance_to(std::uint64_t tick);
   // A journal entry of this scene, at a tick >= next_tick() (the ticks
-  // before it are stepped first). An edit swaps stroke `e.edit`'s images;
+  // before it are stepped first). A history move exchanges stroke `e.number`'s images;
   // returns "" or what could not be done (the stroke is gone).
   std::string apply(const JournalEntry& e);
   bool paused() const { return paused_; }

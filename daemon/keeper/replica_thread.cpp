@@ -46,7 +46,7 @@ void Keeper::run_replica() {
     set_background(behind_s < 1.0);
     const bool caught_up = replay_some(Clock::now() + kReplaySlice);
     if (request) serve(std::move(request));
-    if (in_flight_) send_edits();
+    if (in_flight_) send_history_moves();
     {
       std::lock_guard lock(mutex_);
       if (std::exchange(snapshot_soon_, false)) next_snapshot_ = {};
@@ -91,7 +91,7 @@ bool Keeper::replay_some(Clock::time_point until) {
   while (!inbox_.empty()) {
     const JournalEntry e = inbox_.front();
     if (e.kind == JournalEntry::Kind::scene) {
-      switch_scene(e.edit);
+      switch_scene(e.number);
       inbox_.pop_front();
       changed = true;
       continue;
@@ -108,7 +108,7 @@ bool Keeper::replay_some(Clock::time_point until) {
     const std::string error = replica_->apply(e);  // steps the ticks before it first
     replayed_since_snapshot_ += Clock::now() - began;
     if (!error.empty()) log::warning("history: {}", error);
-    if (e.kind == JournalEntry::Kind::edit) edit_applied(e);
+    if (e.kind == JournalEntry::Kind::history_move) history_move_applied(e);
     changed = true;
     inbox_.pop_front();
   }
@@ -133,7 +133,7 @@ void Keeper::replay_all() {
   while (!replay_some(Clock::time_point::max())) {
   }
   for (const JournalEntry& e : inbox_) {
-    if (e.kind == JournalEntry::Kind::scene) switch_scene(e.edit);
+    if (e.kind == JournalEntry::Kind::scene) switch_scene(e.number);
     else if (replica_ && e.tick <= replica_->next_tick()) (void)replica_->apply(e);
   }
   inbox_.clear();
@@ -168,11 +168,11 @@ void Keeper::switch_scene(std::uint32_t number) {
 void Keeper::finish_requests() {
   std::lock_guard lock(mutex_);
   for (auto& r : requests_) {
-    if (r->edited) r->done(EditResult{"the daemon is stopping", 0, 0});
+    if (r->moved) r->done(HistoryMoveResult{"the daemon is stopping", 0, 0});
     if (r->exported) r->done(ExportResult{"the daemon is stopping", -1, 0});
   }
   requests_.clear();
-  if (in_flight_) in_flight_->request->done(EditResult{"the daemon stopped before the edit was applied", 0, 0});
+  if (in_flight_) in_flight_->request->done(HistoryMoveResult{"the daemon stopped before the undo/redo was applied", 0, 0});
   in_flight_.reset();
 }
 
@@ -197,7 +197,7 @@ void Keeper::catch_up() {
 void Keeper::serve(std::unique_ptr<Request> r) {
   catch_up();
   if (!replica_) {
-    r->done(EditResult{"the sculpt has no history (its scene could not be replayed)", 0, 0});
+    r->done(HistoryMoveResult{"the sculpt has no history (its scene could not be replayed)", 0, 0});
     return;
   }
   in_flight_ = std::make_unique<InFlight>();
@@ -213,7 +213,7 @@ void Keeper::serve(std::unique_ptr<Request> r) {
     in_flight_.reset();
     return;
   }
-  send_edits();
+  send_history_moves();
 }
 
 // The strokes to swap, their images copied for the sim thread; false (the
@@ -223,7 +223,7 @@ bool Keeper::plan(InFlight& f) {
   History::Plan p = undo ? history_.plan_undo(f.request->count, replica_->scene_number())
                          : history_.plan_redo(f.request->count, replica_->scene_number());
   if (p.strokes.empty()) {
-    f.request->done(EditResult{p.error, 0, 0});
+    f.request->done(HistoryMoveResult{p.error, 0, 0});
     return false;
   }
   for (const Stroke* s : p.strokes) {
@@ -239,34 +239,34 @@ bool Keeper::plan(InFlight& f) {
   return true;
 }
 
-// As many as the sim thread's edit ring takes; the rest at the next turn.
-void Keeper::send_edits() {
+// As many as the sim thread's history-move ring takes; the rest at the next turn.
+void Keeper::send_history_moves() {
   InFlight& f = *in_flight_;
-  while (f.queued < f.sent.size() && tap_.send_edit(&f.sent[f.queued].message)) ++f.queued;
+  while (f.queued < f.sent.size() && tap_.send_history_move(&f.sent[f.queued].message)) ++f.queued;
 }
 
 // The sim thread wrote (or refused) stroke images; the replica has swapped
 // them too (Replica::apply).
-void Keeper::edit_applied(const JournalEntry& e) {
-  if (!in_flight_) return;  // a recovered journal's edit
+void Keeper::history_move_applied(const JournalEntry& e) {
+  if (!in_flight_) return;  // a recovered journal's history move
   InFlight& f = *in_flight_;
   if (f.closing) {
     // The open strokes are closed now: plan on the whole history.
     f.closing = false;
     f.sent.clear();
     f.queued = f.applied = 0;
-    if (e.refused || !replica_) f.request->done(EditResult{"the scene was swapped before the edit was applied", 0, 0});
-    else if (plan(f)) return send_edits();
+    if (e.refused || !replica_) f.request->done(HistoryMoveResult{"the scene was swapped before the undo/redo was applied", 0, 0});
+    else if (plan(f)) return send_history_moves();
     in_flight_.reset();
     return;
   }
   if (e.refused && f.result.error.empty())
-    f.result.error = fmt::format("stroke {} was not applied: the scene was swapped first", e.edit);
+    f.result.error = fmt::format("stroke {} was not applied: the scene was swapped first", e.number);
   if (!e.refused) ++f.result.done;
   f.result.tick = e.tick;
   if (++f.applied < f.sent.size()) return;
   publish_history();  // what `history` shows agrees with the answer
-  f.request->done(EditResult(f.result));
+  f.request->done(HistoryMoveResult(f.result));
   in_flight_.reset();
 }
 
@@ -293,8 +293,8 @@ void Keeper::publish_history() {
     auto infos = std::make_shared<std::vector<StrokeInfo>>();
     infos->reserve(static_cast<std::size_t>(last - first));
     for (auto it = first; it != last; ++it)
-      infos->push_back({it->number, it->body, it->scene, it->mesh, it->edit.tools, it->edit.first_tick,
-                        it->edit.release_tick ? it->edit.release_tick : it->edit.last_tick, it->vertices, it->bytes(),
+      infos->push_back({it->number, it->body, it->scene, it->mesh, it->summary.tools, it->summary.first_tick,
+                        it->summary.release_tick ? it->summary.release_tick : it->summary.last_tick, it->vertices, it->bytes(),
                         it->undone});
     history_chunks_[c] = std::move(infos);
   }

@@ -39,7 +39,7 @@ std::string blob_key(const char* kind, std::span<const std::byte> bytes) {
 std::vector<std::byte> stroke_bytes(const Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);
-  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.edit), w.value(s.vertices);
+  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.summary), w.value(s.vertices);
   w.value(static_cast<std::uint8_t>(s.undone)), w.value(static_cast<std::uint64_t>(s.image_bytes));
   w.array(std::span<const char>(s.mesh.data(), s.mesh.size()));
   w.array(s.blocks), w.array(s.images);
@@ -54,7 +54,7 @@ void Keeper::write_scene_start(Job& job) {
   const JournalEntry& e = job.scene;
   const std::vector<std::byte> bytes = job.bundle->bytes();
   const std::string key = blob_key("bundle", bytes);
-  const nlohmann::json meta = {{"format", kMetaFormat}, {"fresh", true},          {"scene", e.edit},
+  const nlohmann::json meta = {{"format", kMetaFormat}, {"fresh", true},          {"scene", e.number},
                                {"next_scene", job.next_scene}, {"scene_file", job.bundle->file}, {"bundle", key},
                                {"first_tick", e.tick},   {"next_tick", e.tick},    {"paused", false},
                                {"next_stroke", 1},       {"dropped", 0},           {"strokes", nlohmann::json::array()}};
@@ -71,7 +71,7 @@ void Keeper::write_scene_start(Job& job) {
   }
   // Snapshots of the scenes before it are obsolete now, even when this one
   // failed: the journal holds the swap, which a replay cannot cross.
-  scene_started_ = std::max(scene_started_, e.edit);
+  scene_started_ = std::max(scene_started_, e.number);
   store_written(st, "the start of a scene");
 }
 

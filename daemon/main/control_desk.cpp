@@ -48,17 +48,17 @@ namespace {
 constexpr const char* kNoStore = "the daemon keeps no store (--no-store, or a replay without --state-dir): no history";
 }  // namespace
 
-kj::Promise<server::EditOutcome> ControlDesk::edit(bool undo, std::uint32_t count) {
-  if (!keeper_) return server::EditOutcome{kNoStore};
+kj::Promise<server::HistoryMoveOutcome> ControlDesk::move_history(bool undo, std::uint32_t count) {
+  if (!keeper_) return server::HistoryMoveOutcome{kNoStore};
   // A paused loop runs no tick, and stroke images go into the world between ticks.
-  if (sims_.paused()) return server::EditOutcome{std::string("the sculpt is paused: resume it to ") + (undo ? "undo" : "redo")};
-  return (undo ? keeper_->undo(count) : keeper_->redo(count)).then([](EditResult r) {
-    return server::EditOutcome{std::move(r.error), r.done, r.tick};
+  if (sims_.paused()) return server::HistoryMoveOutcome{std::string("the sculpt is paused: resume it to ") + (undo ? "undo" : "redo")};
+  return (undo ? keeper_->undo(count) : keeper_->redo(count)).then([](HistoryMoveResult r) {
+    return server::HistoryMoveOutcome{std::move(r.error), r.done, r.tick};
   });
 }
 
-kj::Promise<server::EditOutcome> ControlDesk::undo(std::uint32_t count) { return edit(true, count); }
-kj::Promise<server::EditOutcome> ControlDesk::redo(std::uint32_t count) { return edit(false, count); }
+kj::Promise<server::HistoryMoveOutcome> ControlDesk::undo(std::uint32_t count) { return move_history(true, count); }
+kj::Promise<server::HistoryMoveOutcome> ControlDesk::redo(std::uint32_t count) { return move_history(false, count); }
 
 server::History ControlDesk::history(std::uint32_t from, std::uint32_t limit) {
   server::History h;

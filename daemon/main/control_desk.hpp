@@ -46,8 +46,8 @@ class ControlDesk final : public server::DaemonControl {
   std::string set_paused(bool paused) override { return sims_.set_paused(paused); }
   bool paused_now() override { return sims_.paused(); }
   // The keeper's (none with --no-store: each says so).
-  kj::Promise<server::EditOutcome> undo(std::uint32_t count) override;
-  kj::Promise<server::EditOutcome> redo(std::uint32_t count) override;
+  kj::Promise<server::HistoryMoveOutcome> undo(std::uint32_t count) override;
+  kj::Promise<server::HistoryMoveOutcome> redo(std::uint32_t count) override;
   server::History history(std::uint32_t from, std::uint32_t limit) override;
   kj::Promise<server::ExportOutcome> export_sculpt() override;
   server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune& tune) override {
@@ -61,7 +61,7 @@ class ControlDesk final : public server::DaemonControl {
   const InputSource* input_ = nullptr;
   const haptics::HapticsThread* haptics_ = nullptr;
   Keeper* keeper_ = nullptr;
-  kj::Promise<server::EditOutcome> edit(bool undo, std::uint32_t count);
+  kj::Promise<server::HistoryMoveOutcome> move_history(bool undo, std::uint32_t count);
   std::chrono::steady_clock::time_point started_{};
 };
 

@@ -80,7 +80,7 @@ class Daemon final : public kj::TaskSet::ErrorHandler {
   // Replaces the running simulation with `next`, already built (a loaded
   // scene, or the current one again for reset): the sim thread stops, the
   // new world takes over the tick count, the queued inputs and the attached
-  // devices, viewers get a new snapshot. Nothing of this can fail but the
+  // devices, viewers get a new keyframe. Nothing of this can fail but the
   // new thread's start, which is retried (SimHost::restart_if_missing).
   void swap_in(Simulation next, const char* what);
 

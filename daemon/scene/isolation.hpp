@@ -1,6 +1,6 @@
 // Runs untrusted parsing in a forked child. assimp has crashed and hung on
 // malformed files in the past; a crash or hang there must cost the daemon one
-// failed load, never the running session. The child writes its answer into a
+// failed load, never the running sculpt. The child writes its answer into a
 // memfd; the parent waits on a pidfd with a deadline and kills it past that.
 #pragma once
 

@@ -38,7 +38,7 @@ std::string type_name(const toml::node& n) {
   }
 }
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
+std::size_t levenshtein_distance(std::string_view a, std::string_view b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
@@ -53,13 +53,13 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return row[b.size()];
 }
 
-// " (did you mean 'x'?)" for the closest candidate within a small edit distance.
+// " (did you mean 'x'?)" for the closest candidate within a small (Levenshtein) distance.
 template <class Range>
 std::string did_you_mean(std::string_view word, const Range& candidates) {
   std::string best;
   std::size_t best_d = std::max<std::size_t>(2, word.size() / 3) + 1;
   for (const auto& c : candidates) {
-    const std::size_t d = edit_distance(word, c);
+    const std::size_t d = levenshtein_distance(word, c);
     if (d < best_d) {
       best_d = d;
       best = std::string(c);

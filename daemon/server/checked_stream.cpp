@@ -31,7 +31,7 @@ kj::Promise<kj::Maybe<capnp::MessageReaderAndFds>> CheckedMessageStream::tryRead
   mine.nestingLimit = limits_.nesting;
   // Through the timer, i.e. through epoll: a client whose calls are already
   // buffered (pipelined by the thousand) would otherwise have them all
-  // handled, each answer a snapshot, before the event loop looks at any
+  // handled, each answer a keyframe, before the event loop looks at any
   // other client's socket again (kj polls for I/O only when no event is ready).
   return timer_.afterDelay(0 * kj::NANOSECONDS)
       .then([this, fds, mine, scratch] { return inner_.tryReadMessage(fds, mine, scratch); })

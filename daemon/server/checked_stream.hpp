@@ -1,6 +1,6 @@
 // What one client may send in one message, checked before the RPC system
 // acts on it. Cap'n Proto's receive limit is also its send limit (it refuses
-// to send a message it could not receive), and the daemon sends snapshots of
+// to send a message it could not receive), and the daemon sends keyframes of
 // whole scenes; so the size of what a client sends is limited here instead,
 // and so is the number of capabilities a message carries (each one the RPC
 // system imports costs memory: a 16 MB hello holding a million of them took

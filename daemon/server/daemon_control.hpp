@@ -94,7 +94,7 @@ struct History {
   std::uint64_t older = 0, newer = 0;  // held strokes before and after this page
 };
 
-struct EditOutcome {
+struct HistoryMoveOutcome {
   std::string error;                   // "" on success, else why (nothing to undo, the stroke was made before a scene reload at tick N, ...)
   std::uint32_t done = 0;              // strokes undone/redone
   std::uint64_t tick = 0;              // tick at which it applied
@@ -122,15 +122,15 @@ class DaemonControl {
   virtual kj::Promise<std::string> reset() = 0;
   // Asks; the sim thread applies it at its next tick boundary.
   virtual std::string set_paused(bool paused) = 0;
-  // What the sim thread runs now (pause answers once this agrees: a snapshot
+  // What the sim thread runs now (pause answers once this agrees: a keyframe
   // taken after pause() returns is the final state).
   virtual bool paused_now() = 0;
 
   // Undo / redo the last `count` strokes (the server passes 1 ≤ count ≤
-  // ServerOptions::max_edit_count only, at most a few calls per client at a
-  // time). EditOutcome.error says why not ("" when done).
-  virtual kj::Promise<EditOutcome> undo(std::uint32_t count) = 0;
-  virtual kj::Promise<EditOutcome> redo(std::uint32_t count) = 0;
+  // ServerOptions::max_history_move_count only, at most a few calls per client at a
+  // time). HistoryMoveOutcome.error says why not ("" when done).
+  virtual kj::Promise<HistoryMoveOutcome> undo(std::uint32_t count) = 0;
+  virtual kj::Promise<HistoryMoveOutcome> redo(std::uint32_t count) = 0;
   // One page of the stroke history now: the strokes numbered `from` and up
   // (0: the newest), at most `limit` (the server passes 1 ≤ limit ≤
   // ServerOptions::max_history_entries). Runs on the io loop: it must cost

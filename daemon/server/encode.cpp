@@ -29,7 +29,7 @@ void set_bounds(proto::Aabb::Builder out, const std::array<float, 6>& b) {
   set_vec(out.initMax(), {b[3], b[4], b[5]});
 }
 
-void fill_snapshot(proto::Snapshot::Builder out, const SceneInfo& scene, const PublishedReader& reader) {
+void fill_keyframe(proto::Keyframe::Builder out, const SceneInfo& scene, const PublishedReader& reader) {
   const PublishedHeader& h = reader.header();
   out.setSequence(h.tick);
   out.setSimTimeNs(static_cast<std::uint64_t>(std::llround(static_cast<double>(h.tick) * 1e9 / scene.rate_hz)));
@@ -109,7 +109,7 @@ void fill_tools(capnp::List<proto::Tool>::Builder out, const SceneInfo& scene, c
 
 namespace {
 
-// Stats minor 2 (3's workNvcsw, 4's workNvcswNoFault): why ticks overran, exactly as simloop::snapshot has it.
+// Stats minor 2 (3's workNvcsw, 4's workNvcswNoFault): why ticks overran, exactly as the stats reading (simloop::reading) has it.
 void fill_overruns(proto::Stats::Builder out, const simloop::StatsReading& s) {
   using simloop::OverrunCause;
   auto c = out.initOverrunCauses();

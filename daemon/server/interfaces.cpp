@@ -58,8 +58,8 @@ class SessionImpl final : public proto::Session::Server {
       fill_devices(context.getResults().initDevices(static_cast<unsigned>(list.size())), list);
     });
   }
-  kj::Promise<void> snapshot(SnapshotContext context) override {
-    return answer([&] { server_.fill_snapshot_now(context.getResults(server_.snapshot_size_hint()).initSnapshot()); });
+  kj::Promise<void> keyframe(KeyframeContext context) override {
+    return answer([&] { server_.fill_keyframe_now(context.getResults(server_.keyframe_size_hint()).initKeyframe()); });
   }
   kj::Promise<void> subscribe(SubscribeContext context) override {
     if (!server_.admit(client_)) return closing();
@@ -93,8 +93,8 @@ class SessionImpl final : public proto::Session::Server {
     if (!error.empty()) return result(context.getResults().initResult(), error);
     return answer_when_paused(context.getResults().initResult(), false);
   }
-  kj::Promise<void> undo(UndoContext context) override { return edit(context, false); }
-  kj::Promise<void> redo(RedoContext context) override { return edit(context, true); }
+  kj::Promise<void> undo(UndoContext context) override { return move_history(context, false); }
+  kj::Promise<void> redo(RedoContext context) override { return move_history(context, true); }
   kj::Promise<void> history(HistoryContext context) override {
     const auto p = context.getParams();
     return answer([&] { server_.fill_history(context.getResults().initHistory(), p.getFrom(), p.getLimit()); });
@@ -142,7 +142,7 @@ class SessionImpl final : public proto::Session::Server {
     return kj::READY_NOW;
   }
   // ok only once the sim thread has obeyed: a stalled or finished one never does,
-  // and a snapshot taken after pause() answers ok must be the final state.
+  // and a keyframe taken after pause() answers ok must be the final state.
   kj::Promise<void> answer_when_paused(proto::Result::Builder r, bool paused) {
     return server_.until_paused(paused).then([r, paused](bool obeyed) mutable {
       r.setOk(obeyed);
@@ -152,12 +152,12 @@ class SessionImpl final : public proto::Session::Server {
     });
   }
   template <class Context>
-  kj::Promise<void> edit(Context context, bool redo) {
+  kj::Promise<void> move_history(Context context, bool redo) {
     if (!server_.admit(client_)) return closing();
     const std::uint32_t count = context.getParams().getCount();
-    if (const std::string why = server_.edit_refusal(client_, count); !why.empty())
+    if (const std::string why = server_.history_move_refusal(client_, count); !why.empty())
       return result(context.getResults().initResult(), why);
-    return server_.edit(client_, redo, count).then([context](EditOutcome o) mutable {
+    return server_.move_history(client_, redo, count).then([context](HistoryMoveOutcome o) mutable {
       auto r = context.getResults();
       fill(r.initResult(), o.error);
       r.setDone(o.done);

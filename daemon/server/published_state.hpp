@@ -112,7 +112,7 @@ class PublishedReader {
   // File-order indices of the vertices in a block.
   std::span<const std::uint32_t> block_vertices(std::size_t b, std::uint32_t block) const;
   // Bounds of the current positions of a body: recomputed when asked after a
-  // change (a frame or snapshot), not on every sync — the pump syncs far more
+  // change (a frame or keyframe), not on every sync — the pump syncs far more
   // often than viewers take frames, and a rescan walks the whole body.
   const std::array<float, 6>& bounds(std::size_t b) const;
   std::uint64_t torn_retries() const { return torn_; }

@@ -66,9 +66,9 @@ Server::Replaced Server::set_scene(SceneInfo info, const PublishedState& state,
   std::uint64_t bytes = 4096;
   for (const auto& m : scene_.meshes) bytes += m.rest.size() * 8 + m.triangles.size() * 4 + m.name.size() + 256;
   receive_limit_words_ = std::max<std::uint64_t>(options_.traversal_limit_words, bytes / 8 * 2);
-  snapshot_bytes_ = bytes;
+  keyframe_bytes_ = bytes;
   scratch_.assign(reader_->body_count(), {});
-  for (auto& [id, s] : streams_) s->needs_snapshot = true;
+  for (auto& [id, s] : streams_) s->needs_keyframe = true;
   return old;
 }
 
@@ -261,7 +261,7 @@ bool Server::admit(std::uint64_t client) {
   return false;
 }
 
-std::uint64_t Server::max_queued_bytes() const { return std::max(options_.max_queued_bytes, 4 * snapshot_bytes_); }
+std::uint64_t Server::max_queued_bytes() const { return std::max(options_.max_queued_bytes, 4 * keyframe_bytes_); }
 
 void Server::check_queues() {
   const std::uint64_t limit = max_queued_bytes();

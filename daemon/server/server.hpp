@@ -48,9 +48,9 @@ struct ServerOptions {
   // Limits on every incoming message: a client cannot make the daemon
   // allocate or recurse much. Cap'n Proto RPC also refuses to SEND a message
   // larger than its own receive limit, so the size limit is the larger of
-  // this and twice the loaded scene's snapshot (fixed per connection when it
+  // this and twice the loaded scene's keyframe (fixed per connection when it
   // is accepted; a later, bigger scene needs viewers to reconnect only past it).
-  std::uint64_t traversal_limit_words = 8 * 1024 * 1024;   // 64 MiB: snapshots of ~1M vertices
+  std::uint64_t traversal_limit_words = 8 * 1024 * 1024;   // 64 MiB: keyframes of ~1M vertices
   int nesting_limit = 16;
   // What a client sends: one message at most this big, with at most this
   // many capabilities (checked_stream.hpp).
@@ -60,15 +60,15 @@ struct ServerOptions {
   // parameters (capnp's flow limit: past it, its messages are not read).
   std::size_t flow_limit_words = 1 << 17;
   // Replies and frames queued for one client that it has not read: past the
-  // larger of this and four snapshots of the scene, it is disconnected.
+  // larger of this and four keyframes of the scene, it is disconnected.
   std::uint64_t max_queued_bytes = std::uint64_t{64} << 20;
   // Subscriptions one connection may hold (each keeps a copy of the meshes).
   std::size_t max_viewers_per_client = 4;
   // Undo/redo: strokes one call may ask for (1 … this; else refused, naming
   // the count), and such calls of one connection being applied at once
   // (past it, refused until one answers).
-  std::uint32_t max_edit_count = 10000;
-  std::size_t max_pending_edits_per_client = 4;
+  std::uint32_t max_history_move_count = 10000;
+  std::size_t max_pending_history_moves_per_client = 4;
   // history: at most this many strokes per call (a page; History.omitted
   // and newer count the rest; 16384 entries are about 2 MB).
   std::size_t max_history_entries = 16384;
@@ -94,8 +94,8 @@ struct ServerCounters {
   std::uint64_t disconnected = 0;
   std::uint64_t frames = 0;            // delta frames sent (keep-alives included)
   std::uint64_t keepalives = 0;
-  std::uint64_t snapshots = 0;
-  std::uint64_t bytes_sent = 0;        // stream payloads (snapshots and frames)
+  std::uint64_t keyframes = 0;
+  std::uint64_t bytes_sent = 0;        // stream payloads (keyframes and frames)
 };
 
 class Server {
@@ -105,7 +105,7 @@ class Server {
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
-  // The scene being streamed; every viewer gets a new snapshot. `state`
+  // The scene being streamed; every viewer gets a new keyframe. `state`
   // must stay alive until the next set_scene (or the server's end). A
   // reader of `state` may come built (a big scene's takes a while to fill:
   // the daemon builds it off the io loop); what it replaced is returned, for
@@ -138,10 +138,10 @@ class Server {
   struct Client;
   DaemonControl& control() { return control_; }
   void fill_status(proto::Stats::Builder out);
-  void fill_snapshot_now(proto::Snapshot::Builder out);
-  // A message big enough for the loaded scene's snapshot: built in one
+  void fill_keyframe_now(proto::Keyframe::Builder out);
+  // A message big enough for the loaded scene's keyframe: built in one
   // allocation, not a dozen growing ones (each zeroed).
-  capnp::MessageSize snapshot_size_hint() const { return {snapshot_bytes_ / sizeof(capnp::word) + 1024, 0}; }
+  capnp::MessageSize keyframe_size_hint() const { return {keyframe_bytes_ / sizeof(capnp::word) + 1024, 0}; }
   std::uint64_t add_stream(proto::Viewer::Client viewer, float tolerance, float fps, std::uint64_t client);
   void remove_stream(std::uint64_t id);
   void set_rate(std::uint64_t id, float fps);
@@ -155,11 +155,11 @@ class Server {
   // Resolves true once the sim thread reports `paused`, false after `tries` ms.
   kj::Promise<bool> until_paused(bool paused, int tries = 2000);
   // Undo (redo = false) or redo `count` strokes for a client, once
-  // edit_refusal has said nothing against it ("": go ahead; else the
+  // history_move_refusal has said nothing against it ("": go ahead; else the
   // answer: the count out of range, too many such calls in flight). A
   // failure of the daemon's promise becomes an outcome with its error.
-  std::string edit_refusal(std::uint64_t client, std::uint32_t count) const;
-  kj::Promise<EditOutcome> edit(std::uint64_t client, bool redo, std::uint32_t count);
+  std::string history_move_refusal(std::uint64_t client, std::uint32_t count) const;
+  kj::Promise<HistoryMoveOutcome> move_history(std::uint64_t client, bool redo, std::uint32_t count);
   void fill_history(proto::History::Builder out, std::uint32_t from, std::uint32_t limit);
   // An export for a client, once export_refusal has said nothing against it
   // (too many exports). start_export takes a place for it, asks the daemon
@@ -208,7 +208,7 @@ class Server {
   // The daemon's answer to export `id` (an fd of -1: none); closes the fd when
   // the export is gone.
   void land_export(std::uint64_t id, std::string error, int fd, std::uint64_t bytes);
-  void send_snapshot(Stream& s);
+  void send_keyframe(Stream& s);
   bool send_frame(Stream& s, std::int64_t now);
 
   kj::AsyncIoContext& io_;
@@ -217,7 +217,7 @@ class Server {
   SceneInfo scene_;
   std::unique_ptr<PublishedReader> reader_;
   std::uint64_t receive_limit_words_ = 0;
-  std::uint64_t snapshot_bytes_ = 0;         // of the loaded scene, about
+  std::uint64_t keyframe_bytes_ = 0;         // of the loaded scene, about
   int listen_fd_ = -1;
   kj::Own<kj::UnixEventPort::FdObserver> listen_observer_;
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;

@@ -34,28 +34,28 @@ kj::Promise<bool> Server::until_paused(bool paused, int tries) {
   });
 }
 
-std::string Server::edit_refusal(std::uint64_t client, std::uint32_t count) const {
-  if (count == 0 || count > options_.max_edit_count)
-    return fmt::format("count {} is out of range: 1 to {} strokes at once (max_edit_count)", count,
-                       options_.max_edit_count);
+std::string Server::history_move_refusal(std::uint64_t client, std::uint32_t count) const {
+  if (count == 0 || count > options_.max_history_move_count)
+    return fmt::format("count {} is out of range: 1 to {} strokes at once (max_history_move_count)", count,
+                       options_.max_history_move_count);
   const auto it = clients_.find(client);
   if (it == clients_.end()) return "the connection is closing";
-  if (it->second->pending_edits >= options_.max_pending_edits_per_client)
+  if (it->second->pending_history_moves >= options_.max_pending_history_moves_per_client)
     return fmt::format("{} undo/redo calls of this connection are still being applied (limit: {}, "
-                       "max_pending_edits_per_client); wait for their answers",
-                       it->second->pending_edits, options_.max_pending_edits_per_client);
+                       "max_pending_history_moves_per_client); wait for their answers",
+                       it->second->pending_history_moves, options_.max_pending_history_moves_per_client);
   return {};
 }
 
-kj::Promise<EditOutcome> Server::edit(std::uint64_t client, bool redo, std::uint32_t count) {
-  if (const auto it = clients_.find(client); it != clients_.end()) ++it->second->pending_edits;
+kj::Promise<HistoryMoveOutcome> Server::move_history(std::uint64_t client, bool redo, std::uint32_t count) {
+  if (const auto it = clients_.find(client); it != clients_.end()) ++it->second->pending_history_moves;
   auto answered = kj::defer([this, client] {
-    if (const auto c = clients_.find(client); c != clients_.end()) --c->second->pending_edits;
+    if (const auto c = clients_.find(client); c != clients_.end()) --c->second->pending_history_moves;
   });
   const char* what = redo ? "redo" : "undo";
   return kj::evalNow([this, redo, count] { return redo ? control_.redo(count) : control_.undo(count); })
       .catch_([what](kj::Exception&& e) {
-        EditOutcome o;
+        HistoryMoveOutcome o;
         o.error = fmt::format("the daemon's {} failed: {}", what, e.getDescription().cStr());
         return o;
       })

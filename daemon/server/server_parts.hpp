@@ -32,10 +32,10 @@ struct Server::Stream {
   std::vector<std::vector<float>> baseline;   // per body, file order
   std::uint64_t evaluated = 0;                // reader serial its baseline was compared at
   PublishedHeader sent_header{};              // tools as last sent
-  std::uint64_t sequence = 0;                 // of the last frame or snapshot sent
-  std::uint64_t snapshots = 0;                // sent to this viewer
+  std::uint64_t sequence = 0;                 // of the last frame or keyframe sent
+  std::uint64_t keyframes = 0;                // sent to this viewer
   std::int64_t last_send_ns = 0, last_stats_ns = 0;
-  bool needs_snapshot = true;
+  bool needs_keyframe = true;
   bool in_flight = false;
   bool dead = false;
   kj::Promise<void> pending = nullptr;
@@ -53,7 +53,7 @@ struct Server::Client {
   std::int64_t connected_ns = 0;
   std::int64_t answered_ns = 0;  // a refusal: when its answer was written (0: not yet)
   bool closing = false;  // over a limit: dropped at the next turn of the loop
-  std::size_t pending_edits = 0;  // undo/redo calls being applied
+  std::size_t pending_history_moves = 0;  // undo/redo calls being applied
   int fd = -1;           // the socket (owned by `stream`), to see whether the peer is gone
   kj::Own<kj::AsyncIoStream> stream;
   kj::Own<CheckedMessageStream> messages;

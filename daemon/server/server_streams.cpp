@@ -80,10 +80,10 @@ void Server::set_tolerance(std::uint64_t id, float tolerance) {
   if (auto it = streams_.find(id); it != streams_.end()) it->second->tolerance = checked;
 }
 
-void Server::fill_snapshot_now(proto::Snapshot::Builder out) {
+void Server::fill_keyframe_now(proto::Keyframe::Builder out) {
   if (!reader_) return;
   reader_->sync();
-  server::fill_snapshot(out, scene_, *reader_);
+  server::fill_keyframe(out, scene_, *reader_);
 }
 
 kj::Promise<void> Server::pump_loop() {
@@ -110,8 +110,8 @@ void Server::pump() {
   const std::int64_t now = simloop::monotonic_ns();
   for (auto& [id, s] : streams_) {
     if (s->in_flight || s->dead) continue;
-    if (s->needs_snapshot) {
-      send_snapshot(*s);
+    if (s->needs_keyframe) {
+      send_keyframe(*s);
       continue;
     }
     const auto period = static_cast<std::int64_t>(1e9 / s->fps);
@@ -136,10 +136,10 @@ kj::Promise<void> Server::track_send(std::uint64_t id, kj::Promise<void> sent) {
       .eagerlyEvaluate(nullptr);
 }
 
-void Server::send_snapshot(Stream& s) {
-  auto req = s.viewer.snapshotRequest(snapshot_size_hint());
-  auto snap = req.initSnapshot();
-  server::fill_snapshot(snap, scene_, *reader_);
+void Server::send_keyframe(Stream& s) {
+  auto req = s.viewer.keyframeRequest(keyframe_size_hint());
+  auto keyframe = req.initKeyframe();
+  server::fill_keyframe(keyframe, scene_, *reader_);
   s.baseline.resize(reader_->body_count());
   for (std::size_t b = 0; b < reader_->body_count(); ++b) {
     const auto p = reader_->positions(b);
@@ -147,15 +147,15 @@ void Server::send_snapshot(Stream& s) {
   }
   s.evaluated = reader_->serial();
   s.sent_header = reader_->header();
-  // Strictly increasing per viewer, also across a scene swap's new snapshot.
-  s.sequence = s.snapshots == 0 ? reader_->header().tick : std::max(reader_->header().tick, s.sequence + 1);
-  snap.setSequence(s.sequence);
-  ++s.snapshots;
-  s.needs_snapshot = false;
+  // Strictly increasing per viewer, also across a scene swap's new keyframe.
+  s.sequence = s.keyframes == 0 ? reader_->header().tick : std::max(reader_->header().tick, s.sequence + 1);
+  keyframe.setSequence(s.sequence);
+  ++s.keyframes;
+  s.needs_keyframe = false;
   s.in_flight = true;
   s.last_send_ns = simloop::monotonic_ns();
   counters_.bytes_sent += req.totalSize().wordCount * 8;
-  ++counters_.snapshots;
+  ++counters_.keyframes;
   s.pending = track_send(s.id, req.send());
 }
 

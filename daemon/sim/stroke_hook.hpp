@@ -1,5 +1,5 @@
 // The hook every writer of a block's state calls first (stroke_recorder.hpp):
-// while a stroke is recording, the first change of a block in it captures the
+// while a stroke is open, the first change of a block in it captures the
 // block's image; otherwise it costs one test of a null pointer.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The recording side of strokes (strokes.hpp), internal to the sim: per body,
+// The capturing side of strokes (strokes.hpp), internal to the sim: per body,
 // whether a stroke is open, which blocks it has captured, and the blocks a
 // swap changed that the viewers have not been told of yet.
 //
@@ -12,7 +12,7 @@
 // their first write; once it is done, a stroke that opens (or one released
 // and still settling) captures those blocks with the stashed BlockState,
 // which is all the broadphase writes of a block. Every size is fixed when the
-// body is added: recording allocates nothing.
+// body is added: capturing allocates nothing.
 #pragma once
 
 #include <cstddef>

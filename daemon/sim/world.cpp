@@ -202,11 +202,11 @@ void World<S>::report_tools() {
 template <class S>
 void World<S>::step_body(std::uint32_t bi) {
   Body<S>& b = bodies_[bi];
-  StrokeRecorder<S>& edits = *recorders_[bi];
+  StrokeRecorder<S>& strokes = *recorders_[bi];
   find_contacts(bi);
   if (b.awake_blocks == 0) {  // the whole mesh sleeps: it costs this much
-    if (edits.exchanged_any()) log_changes(bi);  // blocks a swap changed while it slept
-    edits.end_tick(b, tick_);
+    if (strokes.exchanged_any()) log_changes(bi);  // blocks an exchange changed while it slept
+    strokes.end_tick(b, tick_);
     return;
   }
   Substep<S> s = begin_tick(bi);
@@ -226,7 +226,7 @@ void World<S>::step_body(std::uint32_t bi) {
   stats_.vertex_steps += std::uint64_t(s.count) * (stats_.awake_vertices - awake_before);
   judge(bi, s.finite);
   log_changes(bi);
-  edits.end_tick(b, tick_);
+  strokes.end_tick(b, tick_);
 }
 
 // The broadphase, which also tells whether a stroke of the body opens or is released.

@@ -1,5 +1,5 @@
 // World's strokes API (world.hpp): the sink, closing strokes, and block images
-// read and swapped. The recording itself is StrokeRecorder's (stroke_recorder.hpp).
+// read and exchanged. The capture itself is StrokeRecorder's (stroke_recorder.hpp).
 #include <string>
 
 #include "sim/block_image.hpp"
@@ -55,7 +55,7 @@ void World<S>::exchange_block_image(std::uint32_t body, std::uint32_t block, std
   // would no longer match what undoing it must put back.
   if (recorders_[body]->open())
     throw std::invalid_argument("exchange_block_image: body " + std::to_string(body) +
-                                " has an open edit; close_strokes() first");
+                                " has an open stroke; close_strokes() first");
   exchange_block_state(bodies_[body], recorders_[body]->layout(), block, image.data());
   recorders_[body]->swapped(block);
 }

@@ -5,13 +5,13 @@
 //   sculpt::client::Connection c(io, sculpt::client::resolve_socket_path(flag), "my-tool 1.0");
 //   auto stats = c.session().statusRequest().send().wait(io.waitScope).getStats();
 //
-// Streaming: implement sculpt::proto::Viewer::Server (snapshot/frame, feed both
+// Streaming: implement sculpt::proto::Viewer::Server (keyframe/frame, feed both
 // to a MeshMirror), then
 //   auto req = c.session().subscribeRequest();
 //   req.setViewer(kj::heap<MyViewer>(...)); req.setToleranceM(1e-4f); req.setMaxFps(60);
 //   auto sub = req.send().wait(io.waitScope).getSubscription();   // keep it: dropping it ends the stream
 //   kj::NEVER_DONE.wait(io.waitScope);                            // or run your own loop
-// The daemon calls your Viewer from the io loop; return from snapshot/frame
+// The daemon calls your Viewer from the io loop; return from keyframe/frame
 // when you have taken the data (the daemon sends the next frame only then,
 // coalescing what changed meanwhile).
 //
@@ -40,7 +40,7 @@ class ClientError : public std::runtime_error {
   Kind kind_;
 };
 
-// Reader limits for what a client accepts from the daemon: snapshots of big
+// Reader limits for what a client accepts from the daemon: keyframes of big
 // scenes are large (50k vertices ≈ 2 MB), so far above capnp's 64 MiB default.
 capnp::ReaderOptions client_reader_options();
 

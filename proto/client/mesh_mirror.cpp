@@ -43,13 +43,13 @@ void MeshMirror::read_tools(capnp::List<proto::Tool>::Reader tools) {
   }
 }
 
-std::span<const ChangedRange> MeshMirror::apply(proto::Snapshot::Reader s) {
+std::span<const ChangedRange> MeshMirror::apply(proto::Keyframe::Reader s) {
   std::vector<MirrorMesh> meshes;
   for (const auto m : s.getMeshes()) {
     MirrorMesh out;
     out.id = m.getId();
     out.name = m.getName();
-    const std::string what = "snapshot mesh " + std::to_string(out.id) + " (" + out.name + ")";
+    const std::string what = "keyframe mesh " + std::to_string(out.id) + " (" + out.name + ")";
     out.positions = floats_of(m.getPositions(), what + " positions");
     out.rest = floats_of(m.getRestPositions(), what + " restPositions");
     if (out.rest.size() != out.positions.size())
@@ -72,7 +72,7 @@ std::span<const ChangedRange> MeshMirror::apply(proto::Snapshot::Reader s) {
   read_tools(s.getTools());
   sequence_ = s.getSequence();
   sim_time_ns_ = s.getSimTimeNs();
-  has_snapshot_ = true;
+  has_keyframe_ = true;
   changed_.clear();
   for (std::size_t i = 0; i < meshes_.size(); ++i)
     if (meshes_[i].vertices() > 0)
@@ -81,7 +81,7 @@ std::span<const ChangedRange> MeshMirror::apply(proto::Snapshot::Reader s) {
 }
 
 std::span<const ChangedRange> MeshMirror::apply(proto::DeltaFrame::Reader f) {
-  if (!has_snapshot_) throw MirrorError("delta frame " + std::to_string(f.getSequence()) + " before any snapshot");
+  if (!has_keyframe_) throw MirrorError("delta frame " + std::to_string(f.getSequence()) + " before any keyframe");
   // Check everything first: a bad frame changes nothing.
   const auto deltas = f.getMeshes();
   std::vector<int> where(deltas.size());
@@ -89,7 +89,7 @@ std::span<const ChangedRange> MeshMirror::apply(proto::DeltaFrame::Reader f) {
     const auto md = deltas[d];
     const std::string what = "frame " + std::to_string(f.getSequence()) + " mesh " + std::to_string(md.getMeshId());
     const int mi = index_of(md.getMeshId());
-    if (mi < 0) throw MirrorError(what + ": not in the snapshot");
+    if (mi < 0) throw MirrorError(what + ": not in the keyframe");
     where[d] = mi;
     const auto idx = md.getIndices();
     if (md.getPositions().size() != std::size_t{idx.size()} * 12)

@@ -1,17 +1,17 @@
 // A viewer's local copy of the daemon's meshes, kept current from the stream:
-// apply the Snapshot, then every DeltaFrame, in the order they arrive. Each
+// apply the Keyframe, then every DeltaFrame, in the order they arrive. Each
 // apply says which vertex ranges changed, so a renderer re-uploads only
 // those ranges of its vertex buffers.
 //
 //   sculpt::client::MeshMirror mirror;
-//   // in Viewer::snapshot:  mirror.apply(params.getSnapshot());  → upload everything
+//   // in Viewer::keyframe:  mirror.apply(params.getKeyframe());  → upload everything
 //   // in Viewer::frame:
 //   for (const auto& r : mirror.apply(params.getFrame()))
 //     upload(mirror.meshes()[r.mesh].positions, r.begin, r.end);   // vertices [begin, end)
 //
 // Positions are in each mesh file's own vertex order (the order of
 // `triangles`' indices), 3 floats per vertex. A frame that does not fit the
-// snapshot (unknown mesh, index out of range, sizes that disagree) throws
+// keyframe (unknown mesh, index out of range, sizes that disagree) throws
 // MirrorError and changes nothing: the caller should resubscribe.
 #pragma once
 
@@ -66,11 +66,11 @@ class MeshMirror {
   explicit MeshMirror(std::uint32_t merge_gap = 8) : merge_gap_(merge_gap) {}
 
   // Replaces everything; every vertex of every mesh counts as changed.
-  std::span<const ChangedRange> apply(proto::Snapshot::Reader snapshot);
-  // Throws MirrorError before a snapshot, or when the frame does not fit it.
+  std::span<const ChangedRange> apply(proto::Keyframe::Reader keyframe);
+  // Throws MirrorError before a keyframe, or when the frame does not fit it.
   std::span<const ChangedRange> apply(proto::DeltaFrame::Reader frame);
 
-  bool has_snapshot() const { return has_snapshot_; }
+  bool has_keyframe() const { return has_keyframe_; }
   const std::vector<MirrorMesh>& meshes() const { return meshes_; }
   const std::vector<MirrorTool>& tools() const { return tools_; }
   std::uint64_t sequence() const { return sequence_; }
@@ -85,7 +85,7 @@ class MeshMirror {
   void read_tools(capnp::List<proto::Tool>::Reader tools);
 
   std::uint32_t merge_gap_;
-  bool has_snapshot_ = false;
+  bool has_keyframe_ = false;
   std::vector<MirrorMesh> meshes_;
   std::vector<MirrorTool> tools_;
   std::vector<ChangedRange> changed_;

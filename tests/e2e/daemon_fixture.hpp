@@ -23,7 +23,7 @@
 
 namespace sculpt::e2e {
 
-inline std::string sessions(const std::string& name) { return std::string(SCULPT_SESSIONS_DIR) + "/" + name; }
+inline std::string recordings(const std::string& name) { return std::string(SCULPT_RECORDINGS_DIR) + "/" + name; }
 
 struct Daemon {
   std::string socket;
@@ -82,13 +82,13 @@ inline std::optional<Recovered> parse_recovery(const std::string& log) {
   return Recovered{std::stoull(m[1]), m[2]};
 }
 
-// An uninterrupted run's mesh hash after `tick` (ticks 0..tick) of `session`
+// An uninterrupted run's mesh hash after `tick` (ticks 0..tick) of `recording`
 // on builtin:default.
-inline std::string reference_hash(const std::string& session, std::uint64_t tick, const std::string& name) {
+inline std::string reference_hash(const std::string& recording, std::uint64_t tick, const std::string& name) {
   const std::string out = temp_path(name + ".hash");
   char duration[32];
   std::snprintf(duration, sizeof duration, "%.3f", static_cast<double>(tick + 1) / 1000.0);
-  Sculptd ref({"--scene", "builtin:default", "--input", "replay:" + session, "--duration", duration, "--hash-out",
+  Sculptd ref({"--scene", "builtin:default", "--input", "replay:" + recording, "--duration", duration, "--hash-out",
                out, "--socket", temp_path(name + ".sock")});
   if (ref.wait_exit(120s) != 0) return "(the reference run failed: " + ref.log() + ")";
   std::ifstream in(out);

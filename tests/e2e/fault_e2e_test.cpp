@@ -1,7 +1,7 @@
-// Nothing a client, a file or a session can send may crash, freeze or starve
+// Nothing a client, a file or a recording can send may crash, freeze or starve
 // a running sculptd. One test per kind of fault found from outside: scenes
 // the simulation cannot run, files that are not files, a big load, a bad
-// session line, clients that hold memory or places, unstable scenes, and the
+// recording line, clients that hold memory or places, unstable scenes, and the
 // smaller ones. Each checks the daemon named the problem, kept running, kept
 // its sculpt, and kept answering (fault_soak_test.cpp mixes them all).
 #include <fcntl.h>
@@ -87,7 +87,7 @@ name = "finger"
 
 TEST(Load, ScenesTheSimulationCannotRunAreRefusedAndTheSculptKept) {
   Scratch s("refused");
-  Daemon d("refused", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("refused", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   StreamViewer viewer(d.socket, 0.0f, 30.0f);
   ASSERT_TRUE(viewer.wait_for_frames(2, 20s)) << viewer.seen().error_text;
   const Running before = running(d.socket);
@@ -120,8 +120,8 @@ TEST(Load, ScenesTheSimulationCannotRunAreRefusedAndTheSculptKept) {
     EXPECT_EQ(now.scene, before.scene) << "after " << b.path;
     EXPECT_EQ(now.vertices, before.vertices) << "after " << b.path;
   }
-  // The viewer saw no new snapshot: its sculpt was never touched.
-  EXPECT_EQ(viewer.seen().snapshots, 1u);
+  // The viewer saw no new keyframe: its sculpt was never touched.
+  EXPECT_EQ(viewer.seen().keyframes, 1u);
   EXPECT_FALSE(viewer.seen().error) << viewer.seen().error_text;
   // An empty path is the caller's mistake, told by sculptctl itself.
   const CtlRun empty = sculptctl({"load", "", "--socket", d.socket});
@@ -208,7 +208,7 @@ TEST(Load, TheIoLoopServesAndTheWatchdogIsFedWhileABigSceneLoads) {
   constexpr double kWatchdogS = 10;
   ::setenv("NOTIFY_SOCKET", notify.path.c_str(), 1);
   ::setenv("WATCHDOG_USEC", "10000000", 1);
-  Daemon d("big", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("big", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   ::unsetenv("NOTIFY_SOCKET");
   ::unsetenv("WATCHDOG_USEC");
   // Pings on either side of the load: the first before it begins, every one
@@ -281,8 +281,8 @@ TEST(Files, InspectAndCheckRefuseWhatIsNotARegularFileAtOnce) {
 // push.jsonl's frames, four a millisecond, repeated until `frames` lines:
 // long enough that the replay cannot read it all ahead (16k frames), short
 // enough to play through in seconds.
-std::string long_session(const Scratch& s, std::size_t frames, const std::string& name) {
-  std::ifstream in(sessions("push.jsonl"));
+std::string long_recording(const Scratch& s, std::size_t frames, const std::string& name) {
+  std::ifstream in(recordings("push.jsonl"));
   std::string header, line;
   std::getline(in, header);
   std::vector<std::string> lines;
@@ -297,25 +297,25 @@ std::string long_session(const Scratch& s, std::size_t frames, const std::string
   return s.write(name, out.str());
 }
 
-TEST(Replay, ABadLineDeepInTheSessionIsNamedBeforeTheFirstTick) {
+TEST(Replay, ABadLineDeepInTheRecordingIsNamedBeforeTheFirstTick) {
   Scratch s("badline");
-  std::string session = long_session(s, 20000, "late.jsonl");
-  std::ofstream(session, std::ios::app) << "[1, 0, [[3, 0, 18446744073709551615]]]\n";
-  Sculptd d({"--config", "/dev/null", "--input", "replay:" + session, "--duration", "60", "--socket",
+  std::string recording = long_recording(s, 20000, "late.jsonl");
+  std::ofstream(recording, std::ios::app) << "[1, 0, [[3, 0, 18446744073709551615]]]\n";
+  Sculptd d({"--config", "/dev/null", "--input", "replay:" + recording, "--duration", "60", "--socket",
              temp_path("late.sock")});
   EXPECT_EQ(d.wait_exit(60s), 1) << d.log();
-  EXPECT_NE(d.log().find(session + ":20002:"), std::string::npos) << d.log();
-  EXPECT_EQ(d.log().find("sculptd ready"), std::string::npos) << "it started ticking on a session it could not play";
+  EXPECT_NE(d.log().find(recording + ":20002:"), std::string::npos) << d.log();
+  EXPECT_EQ(d.log().find("sculptd ready"), std::string::npos) << "it started ticking on a recording it could not play";
 }
 
-TEST(Replay, ASessionThatChangesUnderTheDaemonEndsTheReplayNotTheDaemon) {
+TEST(Replay, ARecordingThatChangesUnderTheDaemonEndsTheReplayNotTheDaemon) {
   Scratch s("changed");
-  const std::string session = long_session(s, 30000, "changing.jsonl");
-  Daemon d("changed", {"--scene", "builtin:default", "--input", "replay:" + session});
+  const std::string recording = long_recording(s, 30000, "changing.jsonl");
+  Daemon d("changed", {"--scene", "builtin:default", "--input", "replay:" + recording});
   // Past what the replay has read ahead (16k frames), a line goes bad.
   {
-    std::fstream f(session, std::ios::in | std::ios::out);
-    f.seekp(static_cast<std::streamoff>(fs::file_size(session) * 9 / 10));
+    std::fstream f(recording, std::ios::in | std::ios::out);
+    f.seekp(static_cast<std::streamoff>(fs::file_size(recording) * 9 / 10));
     f << "\n{not json}\n";
   }
   EXPECT_TRUE(d.process->wait_for_log("replay ended early", 60s)) << d.process->log();
@@ -330,19 +330,19 @@ TEST(Clients, CallsWhoseAnswersAreNeverReadEndThatClientOnly) {
   // A sanitized daemon keeps freed memory in quarantine: keep that small.
   if (const char* asan = std::getenv("ASAN_OPTIONS"))
     ::setenv("ASAN_OPTIONS", (std::string(asan) + ":quarantine_size_mb=1").c_str(), 1);
-  Daemon d("flood", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("flood", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   StreamViewer viewer(d.socket, 0.0f, 30.0f);
   ASSERT_TRUE(viewer.wait_for_frames(2, 20s));
   const std::uint64_t rss_before = rss_kb(d.process->pid());
   RawRpc raw(d.socket);
   ASSERT_TRUE(raw.hello());
   std::uint32_t sent = 0;
-  for (std::uint32_t q = 2; q < 20002 && raw.snapshot(q); ++q) ++sent;
+  for (std::uint32_t q = 2; q < 20002 && raw.keyframe(q); ++q) ++sent;
   EXPECT_TRUE(raw.closed_within(60s)) << "the flooding client was never disconnected";
   EXPECT_TRUE(d.process->wait_for_log("max_queued_bytes", 20s)) << d.process->log();
   std::uint64_t rss_peak = 0;
   for (int i = 0; i < 10; ++i) rss_peak = std::max(rss_peak, rss_kb(d.process->pid())), std::this_thread::sleep_for(50ms);
-  std::printf("%u pipelined snapshot() calls sent before the daemon closed the connection; RSS %llu kB before, "
+  std::printf("%u pipelined keyframe() calls sent before the daemon closed the connection; RSS %llu kB before, "
               "%llu kB after\n",
               sent, static_cast<unsigned long long>(rss_before), static_cast<unsigned long long>(rss_peak));
   EXPECT_LT(rss_peak, rss_before + 256 * 1024) << "the queue's memory was not given back";
@@ -353,7 +353,7 @@ TEST(Clients, CallsWhoseAnswersAreNeverReadEndThatClientOnly) {
 TEST(Clients, MessagesFullOfCapabilitiesEndThatClientOnly) {
   if (const char* asan = std::getenv("ASAN_OPTIONS"))
     ::setenv("ASAN_OPTIONS", (std::string(asan) + ":quarantine_size_mb=1").c_str(), 1);
-  Daemon d("caps", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("caps", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   const std::uint64_t rss_before = rss_kb(d.process->pid());
   {
     RawRpc raw(d.socket);  // a 16 MB hello with a million capabilities: over the size limit
@@ -375,7 +375,7 @@ TEST(Clients, MessagesFullOfCapabilitiesEndThatClientOnly) {
 }
 
 TEST(Clients, SilentConnectionsAndBurstsNeverLockTheOthersOut) {
-  Daemon d("lockout", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("lockout", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   std::vector<int> silent;
   for (int i = 0; i < 80; ++i) silent.push_back(connect_raw(d.socket));
   // Every place is held by a connection that has said nothing; once they
@@ -409,7 +409,7 @@ TEST(Clients, SilentConnectionsAndBurstsNeverLockTheOthersOut) {
 }
 
 TEST(Clients, AFullTableRefusesWithTheReason) {
-  Daemon d("full", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("full", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   auto io = kj::setupAsyncIo();
   std::vector<std::unique_ptr<client::Connection>> held;
   for (int i = 0; i < 64; ++i) held.push_back(std::make_unique<client::Connection>(io, d.socket, "holder"));
@@ -436,7 +436,7 @@ TEST(Clients, AFullTableRefusesWithTheReason) {
 }
 
 TEST(Clients, BadToleranceIsAnErrorNamingIt) {
-  Daemon d("tolerance", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("tolerance", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   auto io = kj::setupAsyncIo();
   client::Connection c(io, d.socket, "tolerance-test");
   class Nothing final : public proto::Viewer::Server {};
@@ -488,7 +488,7 @@ name = "finger"
   const CtlRun inspect = sculptctl({"inspect", scene});
   EXPECT_EQ(inspect.status, 0) << inspect.err;
   EXPECT_NE(inspect.out.find("mesh 'anvil' blew up"), std::string::npos) << inspect.out;
-  Daemon d("blowup", {"--scene", scene, "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("blowup", {"--scene", scene, "--input", "replay:" + recordings("push.jsonl")});
   EXPECT_TRUE(d.process->wait_for_log("blow-up at tick", 20s)) << d.process->log();
   EXPECT_NE(d.process->log().find("mesh 'anvil'"), std::string::npos) << d.process->log();
 }

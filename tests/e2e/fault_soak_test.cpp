@@ -86,7 +86,7 @@ TEST(Soak, OneDaemonTakesEveryKindOfFaultAndStaysAliveAtRateAndBounded) {
       write("empty.toml", ""), write("garbage.toml", "[[mesh\n"), fifo, "/dev/zero", "/dev/urandom", "/dev/null",
       dir.string(), (dir / "none.toml").string()};
 
-  Daemon d("soak", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  Daemon d("soak", {"--scene", "builtin:default", "--input", "replay:" + recordings("bench_sculpt.jsonl")});
   const pid_t pid = d.process->pid();
   const std::uint64_t rss_start = rss_kb(pid);
   StatusProbe probe(d.socket, pid);
@@ -161,7 +161,7 @@ TEST(Soak, OneDaemonTakesEveryKindOfFaultAndStaysAliveAtRateAndBounded) {
     } else if (what == 8) {  // calls whose answers are never read
       RawRpc raw(d.socket);
       raw.hello();
-      for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+      for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
       }
       ++tried["flood of unread calls"];
     } else if (what == 9) {

@@ -58,8 +58,8 @@ class RawRpc {
     return send(m);
   }
 
-  // session.snapshot(), pipelined on hello's answer, as question `q` (> 1).
-  bool snapshot(std::uint32_t q) {
+  // session.keyframe(), pipelined on hello's answer, as question `q` (> 1).
+  bool keyframe(std::uint32_t q) {
     capnp::MallocMessageBuilder m;
     auto call = m.initRoot<capnp::rpc::Message>().initCall();
     call.setQuestionId(q);
@@ -68,7 +68,7 @@ class RawRpc {
     answer.initTransform(1)[0].setGetPointerField(session_field());
     call.setInterfaceId(capnp::typeId<proto::Session>());
     call.setMethodId(2);
-    call.initParams().getContent().initAs<proto::Session::SnapshotParams>();
+    call.initParams().getContent().initAs<proto::Session::KeyframeParams>();
     return send(m);
   }
 

@@ -1,7 +1,7 @@
-// A sculpt survives SIGKILL: sculptd replays a recorded session into its
+// A sculpt survives SIGKILL: sculptd replays a recording into its
 // store, is killed at seeded random moments, and started again on the same
 // store; the sculpt it recovers has the mesh hash an uninterrupted run of the
-// same session has at the tick the recovery names. How much input the kill
+// same recording has at the tick the recovery names. How much input the kill
 // lost is printed.
 #include <gtest/gtest.h>
 
@@ -33,7 +33,7 @@ std::uint64_t ticks_now(const std::string& socket) {
 
 TEST(Recovery, ASigkilledSculptComesBackAsTheUninterruptedRunHadIt) {
   const int rounds = std::getenv("SCULPT_RECOVERY_ROUNDS") ? std::atoi(std::getenv("SCULPT_RECOVERY_ROUNDS")) : 20;
-  const std::string session = sessions("bench_sculpt.jsonl");
+  const std::string recording = recordings("bench_sculpt.jsonl");
   std::mt19937 seeded(20261125);
   std::uniform_int_distribution<int> run_ms(200, 1800);
   std::int64_t worst_lost = 0;
@@ -43,7 +43,7 @@ TEST(Recovery, ASigkilledSculptComesBackAsTheUninterruptedRunHadIt) {
     fs::remove_all(dir);
     std::uint64_t before_kill = 0;
     {
-      Sculptd run({"--scene", "builtin:default", "--input", "replay:" + session, "--state-dir", dir, "--socket",
+      Sculptd run({"--scene", "builtin:default", "--input", "replay:" + recording, "--state-dir", dir, "--socket",
                    socket});
       ASSERT_TRUE(run.wait_for_log("sculptd ready", 60s)) << run.log();
       std::this_thread::sleep_for(std::chrono::milliseconds(run_ms(seeded)));
@@ -61,7 +61,7 @@ TEST(Recovery, ASigkilledSculptComesBackAsTheUninterruptedRunHadIt) {
       again.signal(SIGTERM);
       EXPECT_EQ(again.wait_exit(30s), 0) << again.log();
     }
-    EXPECT_EQ(rec->hash, reference_hash(session, rec->tick, name)) << "round " << round << ", tick " << rec->tick;
+    EXPECT_EQ(rec->hash, reference_hash(recording, rec->tick, name)) << "round " << round << ", tick " << rec->tick;
     // The ticks the killed run had done before the status answer, not in the
     // recovered state: input the journal had not committed yet. A figure
     // (the keeper commits every 50 ms; how far behind that its thread falls

@@ -1,16 +1,16 @@
-// Determinism end to end: a recorded session fed in-process (`--input
-// replay:FILE`) and the same session played through uinput (`sculptctl
+// Determinism end to end: a recording fed in-process (`--input
+// replay:FILE`) and the same recording played through uinput (`sculptctl
 // replay`, which stamps each frame with its recorded time as MSC_TIMESTAMP)
 // into a daemon scheduling by device time (`--input-clock device`) land on
 // the same ticks, so the sculpted meshes are bit-identical.
 //
 // Both runs must end after the meshes have settled into their final state:
-// the session lasts 9.4 s and the meshes settle within ~1.5 s (the final
+// the recording lasts 9.4 s and the meshes settle within ~1.5 s (the final
 // hash is the same for runs of 11 to 24 s, stopped by SIGTERM or not). The
-// in-process run's session starts at tick 0 and it runs 16 s. The uinput run's session starts
+// in-process run's recording starts at tick 0 and it runs 16 s. The uinput run's recording starts
 // when sculptctl gets going (plus --input-delay), on the tick the daemon's
 // log names when it anchors the device clock; it is stopped (SIGTERM) once
-// its status says it ran the session and the settling from there, however
+// its status says it ran the recording and the settling from there, however
 // late that start was.
 #include <gtest/gtest.h>
 
@@ -23,7 +23,7 @@ namespace {
 // 250 Hz: the emulated VM keeps the pace (at 1 kHz each run took 30 s of the
 // binary's 60 s); both runs use the same rate, which is all determinism needs.
 constexpr int kRate = 250;
-constexpr int kSessionTicks = 9400 * kRate / 1000;  // push.jsonl lasts 9.4 s
+constexpr int kRecordingTicks = 9400 * kRate / 1000;  // push.jsonl lasts 9.4 s
 constexpr int kSettleTicks = 2 * kRate;             // measured: the meshes stop changing within 1.5 s
 constexpr int kRunTicks = 16 * kRate;               // the in-process run
 
@@ -34,7 +34,7 @@ void progress(const char* what) {
 }
 
 TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
-  const std::string session = std::string(SCULPT_SESSIONS_DIR) + "/push.jsonl";
+  const std::string recording = std::string(SCULPT_RECORDINGS_DIR) + "/push.jsonl";
   const std::string scene = data_path("scenes/e2e_default_coarse.toml");
   const std::string h1 = temp_path("h1"), h2 = temp_path("h2");
   const std::string duration = std::to_string(kRunTicks / kRate), rate = std::to_string(kRate);
@@ -46,16 +46,16 @@ TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
   progress("daemon started");
   ASSERT_TRUE(b.wait_for_log("sculptd ready")) << b.log();
   progress("daemon ready");
-  const support::CommandRun replay = support::run_command(SCULPTCTL_BIN, {"replay", session, "--quiet"});
+  const support::CommandRun replay = support::run_command(SCULPTCTL_BIN, {"replay", recording, "--quiet"});
   ASSERT_EQ(replay.status, 0) << replay.err;
   progress("sculptctl replay done");
   ASSERT_TRUE(b.wait_for_log("device clock anchored")) << b.log();
-  // "... applies on tick N": the session's first frame's tick.
+  // "... applies on tick N": the recording's first frame's tick.
   const std::string log = b.log();
   const auto at = log.find("applies on tick ");
   ASSERT_NE(at, std::string::npos) << log;
   const long first_tick = std::stol(log.substr(at + 16));
-  const long end_tick = first_tick + kSessionTicks + kSettleTicks;
+  const long end_tick = first_tick + kRecordingTicks + kSettleTicks;
   long ticks = 0;
   for (const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(240);
        ticks < end_tick && std::chrono::steady_clock::now() < end;) {
@@ -64,14 +64,14 @@ TEST(Determinism, UinputReplayAndInProcessReplayGiveTheSameMesh) {
     ASSERT_EQ(st.status, 0) << st.err;
     ticks = nlohmann::json::parse(st.out)["ticks"].get<long>();
   }
-  ASSERT_GE(ticks, end_tick) << "the uinput run never reached tick " << end_tick << " (session from tick "
+  ASSERT_GE(ticks, end_tick) << "the uinput run never reached tick " << end_tick << " (recording from tick "
                              << first_tick << ")";
   b.signal(SIGTERM);
   ASSERT_EQ(b.wait_exit(60s), 0) << b.log();
   progress("uinput run done");
-  std::printf("uinput session from tick %ld, run stopped at tick %ld or later\n", first_tick, ticks);
+  std::printf("uinput recording from tick %ld, run stopped at tick %ld or later\n", first_tick, ticks);
 
-  Sculptd a({"--scene", scene, "--rate", rate, "--input", "replay:" + session, "--duration", duration, "--hash-out", h1});
+  Sculptd a({"--scene", scene, "--rate", rate, "--input", "replay:" + recording, "--duration", duration, "--hash-out", h1});
   ASSERT_EQ(a.wait_exit(60s), 0) << a.log();
   progress("in-process run done");
 

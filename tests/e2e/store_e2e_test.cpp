@@ -60,8 +60,8 @@ void raw_sql(const fs::path& db_file, const std::string& sql) {
 }
 
 // A sculpt pushed for `ms` in `dir`, stopped with SIGTERM: its final hash.
-std::string sculpt_in(const fs::path& dir, const std::string& name, int ms, const std::string& session = "push.jsonl") {
-  Sculptd d({"--scene", "builtin:default", "--input", "replay:" + sessions(session), "--state-dir", dir.string(),
+std::string sculpt_in(const fs::path& dir, const std::string& name, int ms, const std::string& recording = "push.jsonl") {
+  Sculptd d({"--scene", "builtin:default", "--input", "replay:" + recordings(recording), "--state-dir", dir.string(),
              "--socket", temp_path(name + ".sock")});
   if (!d.wait_for_log("sculptd ready", 60s)) return "(did not start: " + d.log() + ")";
   std::this_thread::sleep_for(std::chrono::milliseconds(ms));
@@ -83,7 +83,7 @@ TEST(SculptdStore, AnExportedSculptOpensAsTheSameSculptElsewhere) {
   const std::string file = (files.path / "ball.sculpt").string();
   std::string hash;
   {
-    Daemon d("export", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"), "--state-dir",
+    Daemon d("export", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl"), "--state-dir",
                         a.path.string()});
     std::this_thread::sleep_for(std::chrono::milliseconds(2500));
     ASSERT_EQ(sculptctl({"pause", "--socket", d.socket}).status, 0);
@@ -227,7 +227,7 @@ TEST(Open, AStoreThatDoesNotRecoverIsKeptAsItWasAndTheSculptStartsAnew) {
 TEST(SculptdLock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
   Dir base("lock-gone");
   const fs::path dir = base.path / "state";
-  Daemon first("lock-gone-1", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"),
+  Daemon first("lock-gone-1", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl"),
                                "--state-dir", dir.string()});
   const std::string pid = std::to_string(first.process->pid());
   fs::remove(dir / "lock");
@@ -248,10 +248,10 @@ TEST(SculptdLock, NeitherALockFileNorADirectoryRemovedLetsASecondDaemonIn) {
 
 TEST(SculptdTaken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLosesNothing) {
   Dir d("taken");
-  const std::string session = sessions("bench_sculpt.jsonl");
+  const std::string recording = recordings("bench_sculpt.jsonl");
   std::uint64_t removed_at = 0;
   {
-    Daemon run("taken-1", {"--scene", "builtin:default", "--input", "replay:" + session, "--state-dir",
+    Daemon run("taken-1", {"--scene", "builtin:default", "--input", "replay:" + recording, "--state-dir",
                            d.path.string()});
     std::this_thread::sleep_for(1500ms);
     const CtlRun status = sculptctl({"status", "--json", "--socket", run.socket});
@@ -272,7 +272,7 @@ TEST(SculptdTaken, StoreFilesRemovedUnderTheDaemonAreWrittenBackAndACrashAfterLo
   EXPECT_NE(again.log().find("nothing saved was lost"), std::string::npos) << again.log();
   again.signal(SIGTERM);
   EXPECT_EQ(again.wait_exit(30s), 0);
-  EXPECT_EQ(rec->hash, reference_hash(session, rec->tick, "taken-ref")) << "tick " << rec->tick;
+  EXPECT_EQ(rec->hash, reference_hash(recording, rec->tick, "taken-ref")) << "tick " << rec->tick;
 }
 
 }  // namespace

@@ -108,7 +108,7 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
   const std::string rescue = temp_path("store-ro-rescue.sculpt");
   ::unlink(rescue.c_str());
   {
-    Daemon d("store-ro-1", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl"),
+    Daemon d("store-ro-1", {"--scene", "builtin:default", "--input", "replay:" + recordings("bench_sculpt.jsonl"),
                             "--state-dir", dir});
     std::this_thread::sleep_for(1s);
     ASSERT_TRUE(m.force_read_only());
@@ -160,7 +160,7 @@ TEST(ReadOnly, SculptHeldInMemoryWhenTheDaemonDiesIsNamedAsLostAtTheRestart) {
 TEST(Frozen, UndoRedoAndHistoryAnswerWhileTheDiskIsFrozen) {
   Mounted m("store-frozen");
   ASSERT_TRUE(m.ok()) << "cannot loop-mount an ext4 image (the test runs as root): " << m.error();
-  Daemon d("store-frozen", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"),
+  Daemon d("store-frozen", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl"),
                             "--state-dir", m.dir() + "/state"});
   std::this_thread::sleep_for(3s);  // the pushes are made
   ASSERT_TRUE(m.freeze(true));

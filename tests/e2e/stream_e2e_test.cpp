@@ -1,9 +1,9 @@
-// Streaming end to end on the host (no devices: a recorded session replays
+// Streaming end to end on the host (no devices: a recording replays
 // into sculptd): many viewers reconstruct the sculpt within their tolerance,
 // a stalled viewer slows nobody, bad clients are dropped while the others are
 // served, an old protocol is refused with a reason, an idle scene sends only
 // keep-alives, and every sculptctl command against a running daemon.
-// (fault_e2e_test.cpp: what a client, a file or a session must not be able to
+// (fault_e2e_test.cpp: what a client, a file or a recording must not be able to
 // do to the daemon.)
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -67,10 +67,10 @@ struct Control {
   }
   std::uint64_t viewers() { return c.session().statusRequest().send().wait(io.waitScope).getStats().getViewers(); }
   // The daemon's whole state now, as a mirror.
-  client::MeshMirror snapshot() {
-    auto r = c.session().snapshotRequest().send().wait(io.waitScope);
+  client::MeshMirror keyframe() {
+    auto r = c.session().keyframeRequest().send().wait(io.waitScope);
     client::MeshMirror m;
-    m.apply(r.getSnapshot());
+    m.apply(r.getKeyframe());
     return m;
   }
 };
@@ -97,9 +97,9 @@ double max_error(const std::vector<client::MirrorMesh>& have, const std::vector<
 // its tolerance (the last frames arrive within about a keep-alive period).
 void expect_viewers_match(Control& control, std::vector<std::unique_ptr<StreamViewer>>& viewers) {
   ASSERT_TRUE(control.pause(true));
-  // A snapshot after the pause is the final state; every viewer gets a frame
+  // A keyframe after the pause is the final state; every viewer gets a frame
   // at or after its sequence (changes, or the next keep-alive).
-  const client::MeshMirror truth = control.snapshot();
+  const client::MeshMirror truth = control.keyframe();
   for (auto& v : viewers) {
     ASSERT_TRUE(v->wait_for_sequence(truth.sequence(), 20s)) << v->seen().error_text;
     // The frame carrying the last changes may be the one after the first at
@@ -117,7 +117,7 @@ void expect_viewers_match(Control& control, std::vector<std::unique_ptr<StreamVi
 }
 
 TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTolerance) {
-  Daemon d("sixteen", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  Daemon d("sixteen", {"--scene", "builtin:default", "--input", "replay:" + recordings("bench_sculpt.jsonl")});
   Control control(d.socket);
   const float tolerances[] = {0.0f, 1e-4f, 1e-3f, 5e-3f};
   const float rates[] = {30.0f, 60.0f, 120.0f, 500.0f};
@@ -147,11 +147,11 @@ TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTole
   }
   EXPECT_EQ(counted, 16u);
   // The recorded gamepad (slot 0) drives both tools.
-  const client::MeshMirror now = control.snapshot();
+  const client::MeshMirror now = control.keyframe();
   ASSERT_EQ(now.tools().size(), 2u);
   for (const auto& t : now.tools()) EXPECT_EQ(t.device_slot, 0) << "tool " << t.id;
 
-  // The session sculpts (from a second or so in): the viewers see it
+  // The recording sculpts (from a second or so in): the viewers see it
   // before the pause.
   const auto with_meshes = [&] {
     std::uint64_t n = 0;
@@ -160,7 +160,7 @@ TEST(Stream, SixteenViewersComingAndGoingEachReconstructTheSculptWithinTheirTole
   };
   for (const auto end = std::chrono::steady_clock::now() + 60s; with_meshes() == 0 && std::chrono::steady_clock::now() < end;)
     std::this_thread::sleep_for(20ms);
-  EXPECT_GT(with_meshes(), 0u) << "the session sculpted nothing the viewers saw";
+  EXPECT_GT(with_meshes(), 0u) << "the recording sculpted nothing the viewers saw";
   expect_viewers_match(control, viewers);
 }
 
@@ -171,7 +171,7 @@ TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
     ::setenv("ASAN_OPTIONS", (std::string(asan) + ":quarantine_size_mb=1").c_str(), 1);
   constexpr double kRateHz = 20;
   Daemon d("stall", {"--scene", "builtin:default", "--rate", "20", "--input",
-                     "replay:" + sessions("bench_sculpt.jsonl")});
+                     "replay:" + recordings("bench_sculpt.jsonl")});
   Control control(d.socket);
   std::vector<std::unique_ptr<StreamViewer>> viewers;
   viewers.push_back(std::make_unique<StreamViewer>(d.socket, 0.0f, 1000.0f));  // the one that stalls
@@ -218,7 +218,7 @@ TEST(Stream, AViewerThatStopsReadingSlowsNobodyAndCatchesUpWhenItResumes) {
 }
 
 TEST(Stream, GarbageTruncatedSilentAndRapidClientsLeaveTheOthersServed) {
-  Daemon d("garbage", {"--scene", "builtin:default", "--input", "replay:" + sessions("bench_sculpt.jsonl")});
+  Daemon d("garbage", {"--scene", "builtin:default", "--input", "replay:" + recordings("bench_sculpt.jsonl")});
   StreamViewer good(d.socket, 0.0f, 60.0f);
   ASSERT_TRUE(good.wait_for_frames(2, 20s)) << good.seen().error_text;
 
@@ -287,7 +287,7 @@ TEST(Stream, GarbageTruncatedSilentAndRapidClientsLeaveTheOthersServed) {
 }
 
 TEST(Stream, AClientOfAnotherMajorVersionIsRefusedWithAReason) {
-  Daemon d("major", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("major", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   auto io = kj::setupAsyncIo();
   try {
     client::Connection c(io, d.socket, "future-client", proto::PROTOCOL_MAJOR + 1, 0);
@@ -302,7 +302,7 @@ TEST(Stream, AClientOfAnotherMajorVersionIsRefusedWithAReason) {
 }
 
 TEST(Stream, TheSocketIsForTheOwnerAndGroupOnly) {
-  Daemon d("mode", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl")});
+  Daemon d("mode", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl")});
   struct stat st {};
   ASSERT_EQ(::stat(d.socket.c_str(), &st), 0) << d.socket;
   EXPECT_TRUE(S_ISSOCK(st.st_mode));
@@ -322,10 +322,10 @@ TEST(Stream, NoDaemonIsNamedClearly) {
 }
 
 TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
-  // A session with its gamepad and no input at all: nothing ever moves.
+  // A recording with its gamepad and no input at all: nothing ever moves.
   const std::string idle = temp_path("idle.jsonl");
   {
-    std::ifstream in(sessions("push.jsonl"));
+    std::ifstream in(recordings("push.jsonl"));
     std::string header;
     std::getline(in, header);
     std::ofstream(idle) << header << "\n";
@@ -339,7 +339,7 @@ TEST(Stream, AnIdleSceneStreamsOnlyKeepAlives) {
   const auto seen = v.seen();
   const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - subscribed).count();
   EXPECT_FALSE(seen.error) << seen.error_text;
-  EXPECT_EQ(seen.snapshots, 1u);
+  EXPECT_EQ(seen.keyframes, 1u);
   EXPECT_EQ(seen.frames_with_meshes, 0u);
   EXPECT_EQ(seen.frames, seen.keepalives);
   EXPECT_GE(seen.keepalives, 3u);
@@ -360,7 +360,7 @@ TEST(Stream, SocketActivationServesThePassedSocket) {
   ::unlink(socket.c_str());
   ::unlink(other.c_str());
   support::ChildProcess activated({activate, "-l", socket, SCULPTD_BIN, "--scene", "builtin:default", "--input",
-                                   "replay:" + sessions("push.jsonl"), "--socket", other},
+                                   "replay:" + recordings("push.jsonl"), "--socket", other},
                                   {.err = support::ChildProcess::Output::capture});
   {
     auto io = kj::setupAsyncIo();
@@ -396,7 +396,7 @@ std::set<std::string> keys_of(const nlohmann::json& j) {
 
 TEST(Sculptctl, EveryDaemonCommandAgainstARunningSculptd) {
   const std::string stats = temp_path("ctl-stats.json");
-  Daemon d("ctl", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"), "--stats-json", stats});
+  Daemon d("ctl", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl"), "--stats-json", stats});
   const std::vector<std::string> sock = {"--socket", d.socket};
   auto with = [&](std::vector<std::string> a) {
     a.insert(a.end(), sock.begin(), sock.end());

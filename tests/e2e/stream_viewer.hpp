@@ -26,9 +26,9 @@ namespace sculpt::e2e {
 class StreamViewer {
  public:
   struct Seen {
-    std::uint64_t snapshots = 0, frames = 0, keepalives = 0, frames_with_meshes = 0;
-    std::uint64_t sequence = 0;       // of the last snapshot or frame
-    std::uint64_t not_increasing = 0; // snapshots and frames whose sequence was not above the last one's
+    std::uint64_t keyframes = 0, frames = 0, keepalives = 0, frames_with_meshes = 0;
+    std::uint64_t sequence = 0;       // of the last keyframe or frame
+    std::uint64_t not_increasing = 0; // keyframes and frames whose sequence was not above the last one's
     std::uint64_t frame_bytes = 0;    // message payloads of the frames received
     bool error = false;
     std::string error_text;
@@ -76,7 +76,7 @@ class StreamViewer {
     std::lock_guard lock(mutex_);
     return mirror_.meshes();
   }
-  // Waits until a frame or snapshot at or after `sequence` arrived.
+  // Waits until a frame or keyframe at or after `sequence` arrived.
   bool wait_for_sequence(std::uint64_t sequence, std::chrono::milliseconds timeout) {
     std::unique_lock lock(mutex_);
     return changed_.wait_for(lock, timeout, [&] { return seen_.error || seen_.sequence >= sequence; }) &&
@@ -100,13 +100,13 @@ class StreamViewer {
   class Impl final : public proto::Viewer::Server {
    public:
     explicit Impl(StreamViewer& v) : v_(v) {}
-    kj::Promise<void> snapshot(SnapshotContext context) override {
+    kj::Promise<void> keyframe(KeyframeContext context) override {
       std::lock_guard lock(v_.mutex_);
       try {
-        v_.mirror_.apply(context.getParams().getSnapshot());
-        if (v_.seen_.snapshots + v_.seen_.frames > 0 && v_.mirror_.sequence() <= v_.seen_.sequence)
+        v_.mirror_.apply(context.getParams().getKeyframe());
+        if (v_.seen_.keyframes + v_.seen_.frames > 0 && v_.mirror_.sequence() <= v_.seen_.sequence)
           ++v_.seen_.not_increasing;
-        ++v_.seen_.snapshots;
+        ++v_.seen_.keyframes;
         v_.seen_.sequence = v_.mirror_.sequence();
       } catch (const std::exception& e) {
         v_.seen_.error = true;

@@ -28,9 +28,9 @@ struct Dir {
   }
 };
 
-// A sculpt saved by sculptd: the push session for a couple of seconds, stopped.
+// A sculpt saved by sculptd: the push recording for a couple of seconds, stopped.
 void sculpt_into(const fs::path& dir) {
-  Daemon d("untrusted-make", {"--scene", "builtin:default", "--input", "replay:" + sessions("push.jsonl"),
+  Daemon d("untrusted-make", {"--scene", "builtin:default", "--input", "replay:" + recordings("push.jsonl"),
                               "--state-dir", dir.string()});
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
 }

@@ -1,6 +1,6 @@
 // Writes the store fuzzer's seeds (tests/fuzz/store_seeds) from a real
 // sculpt: the tiny scene (store_fuzz_base.hpp) sculpted by the start of the
-// push session with a keeper, exactly as sculptd runs it, then exported; and
+// push recording with a keeper, exactly as sculptd runs it, then exported; and
 // inputs of every other mode made from it and from the fuzzer's base.
 //
 //   build-asan/tests/fuzz/make_store_seeds tests/fuzz/store_seeds
@@ -68,13 +68,13 @@ int main(int argc, char** argv) {
   ks.replay_work_per_snapshot = std::chrono::hours(1);
   {
     daemon::JournalTap tap;
-    daemon::testing::Rig rig(&tap, std::string(SCULPT_TEST_DATA) + "/sessions/push.jsonl", {}, fuzz::tiny_bundle());
+    daemon::testing::Rig rig(&tap, std::string(SCULPT_TEST_DATA) + "/recordings/push.jsonl", {}, fuzz::tiny_bundle());
     daemon::Keeper keeper(ks, tap);
     keeper.start_anew();
     keeper.scene_started(rig.bundle(), std::make_shared<const scene::Scene>(rig.sim().scene), 0);
     keeper.start();
     rig.start_at(0);
-    for (int i = 0; i < 8 && !rig.session_done(); ++i) {  // the session's first press (the seed stays small)
+    for (int i = 0; i < 8 && !rig.recording_done(); ++i) {  // the recording's first press (the seed stays small)
       rig.run(200);
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }

@@ -3,9 +3,9 @@
 
   record_server_seeds.py SCULPTD SCULPTCTL tests/fuzz/server_seeds FAKE_SCULPTD
 
-Starts sculptd on a replayed session, puts a proxy socket in front of it and
+Starts sculptd on a replayed recording, puts a proxy socket in front of it and
 runs sculptctl commands through the proxy; each connection's client→daemon
-bytes become one seed file (hello, status, devices, snapshot, control calls).
+bytes become one seed file (hello, status, devices, keyframe, control calls).
 Then the same in front of FAKE_SCULPTD (build/tests/unit/server/fake_sculptd:
 the server on a fake daemon with a history and an export to read) for undo,
 redo, history and export (its chunked reads included).
@@ -13,11 +13,11 @@ redo, history and export (its chunked reads included).
 import os, socket, subprocess, sys, tempfile, threading, time
 
 sculptd, sculptctl, outdir, fake_sculptd = sys.argv[1:5]
-sessions = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'sessions')
+recordings = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', 'data', 'recordings')
 tmp = tempfile.mkdtemp()
 real, proxy = os.path.join(tmp, 'real.sock'), os.path.join(tmp, 'proxy.sock')
 d = subprocess.Popen([sculptd, '--scene', 'builtin:default', '--socket', real, '--duration', '30',
-                      '--input', 'replay:' + os.path.join(sessions, 'push.jsonl')], stderr=subprocess.DEVNULL)
+                      '--input', 'replay:' + os.path.join(recordings, 'push.jsonl')], stderr=subprocess.DEVNULL)
 while not os.path.exists(real):
     time.sleep(0.05)
 time.sleep(0.3)
@@ -64,7 +64,7 @@ def record(target, seeds):
 
 record(real, [('hello_status', ['status']), ('devices', ['devices']), ('pause', ['pause']),
               ('resume', ['resume']), ('reset', ['reset']), ('load_bad', ['load', '/nonexistent.toml']),
-              ('snapshot', ['save', os.path.join(tmp, 'x.obj')])])
+              ('keyframe', ['save', os.path.join(tmp, 'x.obj')])])
 d.terminate()
 d.wait()
 

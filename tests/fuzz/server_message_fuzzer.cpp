@@ -42,8 +42,8 @@ class FakeControl final : public server::DaemonControl {
     return {};
   }
   bool paused_now() override { return paused; }
-  kj::Promise<server::EditOutcome> undo(std::uint32_t count) override { return edit(count); }
-  kj::Promise<server::EditOutcome> redo(std::uint32_t count) override { return edit(count); }
+  kj::Promise<server::HistoryMoveOutcome> undo(std::uint32_t count) override { return move_history(count); }
+  kj::Promise<server::HistoryMoveOutcome> redo(std::uint32_t count) override { return move_history(count); }
   server::HapticsTuneOutcome tune_haptics(std::uint32_t slot, const server::HapticsTune&) override {
     server::HapticsTuneOutcome out;
     if (slot != 0) out.error = "no device on slot " + std::to_string(slot);
@@ -81,8 +81,8 @@ class FakeControl final : public server::DaemonControl {
   bool paused = false;
 
  private:
-  static kj::Promise<server::EditOutcome> edit(std::uint32_t count) {
-    server::EditOutcome o;
+  static kj::Promise<server::HistoryMoveOutcome> move_history(std::uint32_t count) {
+    server::HistoryMoveOutcome o;
     if (count > 3) o.error = "nothing more to undo";
     else o.done = count;
     o.tick = 42;

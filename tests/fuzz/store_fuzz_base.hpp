@@ -68,7 +68,7 @@ inline std::shared_ptr<daemon::SceneBundle> tiny_bundle() {
 inline std::vector<std::byte> stroke_bytes(const daemon::Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);
-  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.edit), w.value(s.vertices);
+  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.summary), w.value(s.vertices);
   w.value(static_cast<std::uint8_t>(s.undone)), w.value(static_cast<std::uint64_t>(s.image_bytes));
   w.array(std::span<const char>(s.mesh.data(), s.mesh.size()));
   w.array(s.blocks), w.array(s.images);
@@ -97,7 +97,7 @@ struct Base {
     s.scene = 1;
     s.body = 0;
     s.mesh = "ball";
-    s.edit = {1, 0, 2, 1};
+    s.summary = {1, 0, 2, 1};
     s.image_bytes = w.block_image_bytes(0);
     for (std::uint32_t k = 0; k < std::min<std::uint32_t>(2, w.body(0).blocks); ++k) {
       std::vector<std::byte> image(s.image_bytes);

@@ -1,6 +1,6 @@
 // A sculpt run by hand, tick by tick, as sculptd's sim thread runs it
 // (SimThread::run_tick): a scene bundle (the built-in scene unless given), a
-// recorded session pushed through the input ring, the stages writing the
+// recording pushed through the input ring, the stages writing the
 // journal. The keeper tests and benchmark compare what the keeper and its
 // replica make of the journal with it. Header-only; whoever includes it
 // links sculpt_daemon.
@@ -24,8 +24,8 @@ namespace sculpt::daemon::testing {
 
 class Rig {
  public:
-  // `session`: a recorded session to replay from start_at()'s tick ("" : none).
-  explicit Rig(JournalTap* tap, const std::string& session, std::span<const std::byte> state = {},
+  // `recording`: a recording to replay from start_at()'s tick ("" : none).
+  explicit Rig(JournalTap* tap, const std::string& recording, std::span<const std::byte> state = {},
                std::shared_ptr<SceneBundle> bundle = nullptr)
       : bundle_(bundle ? std::move(bundle)
                        : std::make_shared<SceneBundle>(read_bundle("builtin:default", simloop::SimulationSettings{}))),
@@ -35,14 +35,14 @@ class Rig {
         tools_(sim_.tools) {
     for (auto& t : tools_) t.active = false;
     if (tap) sim_.stages->set_journal(tap, sim_.world.get());
-    if (!session.empty()) {
+    if (!recording.empty()) {
       replay_ = std::make_unique<input::ReplaySource>(
-          session, sim_.rate,
+          recording, sim_.rate,
           [this](std::uint8_t slot, const input::DeviceInfo& info) { return router_.attach(slot, info, mapping_); });
     }
   }
 
-  // The sim thread's next tick is `tick`; the session starts there.
+  // The sim thread's next tick is `tick`; the recording starts there.
   void start_at(std::uint64_t tick) {
     next_ = tick;
     if (replay_) replay_->start(tick);
@@ -68,7 +68,7 @@ class Rig {
   // How long the last tick's input stage took (stroke images are written there).
   double input_ns() const { return input_ns_; }
   std::uint64_t hash_after(std::uint64_t tick) const { return hashes_.at(tick); }
-  bool session_done() const { return !replay_ || replay_->finished(); }
+  bool recording_done() const { return !replay_ || replay_->finished(); }
   Simulation& sim() { return sim_; }
   const std::shared_ptr<SceneBundle>& bundle() const { return bundle_; }
 

@@ -1,6 +1,6 @@
 // scripts/demo end to end, shortened (--quick: 20 frames, however long they
-// take), with the programs of this build: it exits 0, both viewers' snapshots and the image sequence exist and
-// show the meshes, and the sequence moves (the session sculpts). The sequence
+// take), with the programs of this build: it exits 0, both viewers' screenshots and the image sequence exist and
+// show the meshes, and the sequence moves (the recording sculpts). The sequence
 // holds what the viewer drew, each picture once, and its timing file lists
 // every frame with how long it was shown.
 #include <gtest/gtest.h>

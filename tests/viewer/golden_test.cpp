@@ -34,7 +34,7 @@ TEST_P(Golden, MatchesWithinTolerance) {
   const std::string dir = support::fresh_scratch_dir("golden");
   const std::string out = dir + "/" + c.name + ".png";
   std::vector<std::string> argv = {SCULPT_VIEW_BIN, "--scene", "builtin:default", "--headless", "--size", "480x270",
-                                   "--camera", "20,25", "--snapshot", out, "--quiet"};
+                                   "--camera", "20,25", "--screenshot", out, "--quiet"};
   argv.insert(argv.end(), c.flags.begin(), c.flags.end());
   ChildProcess view(argv, one_log_own_group());
   const auto rc = view.wait(60s);
@@ -81,17 +81,17 @@ TEST(ViewerCli, ErrorsNameWhatWasWrong) {
     const int rc = c.wait(60s).value_or(-1);
     return std::pair{rc, c.out().text()};
   };
-  auto [rc, log] = run({"--scene", dir + "/missing.toml", "--snapshot", dir + "/x.png"});
+  auto [rc, log] = run({"--scene", dir + "/missing.toml", "--screenshot", dir + "/x.png"});
   EXPECT_EQ(rc, 1);
   EXPECT_NE(log.find("missing.toml"), std::string::npos) << log;
-  std::tie(rc, log) = run({"--scene", std::string(SCULPT_TEST_DATA) + "/scenes/bad/bad_mesh_file.toml", "--snapshot",
+  std::tie(rc, log) = run({"--scene", std::string(SCULPT_TEST_DATA) + "/scenes/bad/bad_mesh_file.toml", "--screenshot",
                            dir + "/x.png"});
   EXPECT_EQ(rc, 1);
   EXPECT_NE(log.find("bad_mesh_file.toml:2"), std::string::npos) << log;
   std::tie(rc, log) = run({"--scene", "builtin:default", "--size", "640by480"});
   EXPECT_EQ(rc, 2);
   EXPECT_NE(log.find("--size '640by480'"), std::string::npos) << log;
-  std::tie(rc, log) = run({"--scene", "builtin:default", "--snapshot", dir + "/no/such/dir/x.png", "--quiet"});
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--screenshot", dir + "/no/such/dir/x.png", "--quiet"});
   EXPECT_EQ(rc, 1);
   EXPECT_NE(log.find("no/such/dir/x.png"), std::string::npos) << log;
   // Offscreen with nothing to write would render into the void forever.
@@ -103,7 +103,17 @@ TEST(ViewerCli, ErrorsNameWhatWasWrong) {
   EXPECT_NE(log.find("--frobnicate"), std::string::npos) << log;
   std::tie(rc, log) = run({"--help"});
   EXPECT_EQ(rc, 0);
-  EXPECT_NE(log.find("--snapshot"), std::string::npos) << log;
+  EXPECT_NE(log.find("--screenshot"), std::string::npos) << log;
+  // --snapshot, the old name users' scripts still pass: it works, with one
+  // warning line, and cannot be given with --screenshot.
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--size", "64x48", "--snapshot", dir + "/old.png", "--quiet"});
+  EXPECT_EQ(rc, 0) << log;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/old.png"));
+  const std::string warning = "sculpt-view: warning: --snapshot is deprecated: use --screenshot\n";
+  ASSERT_NE(log.find(warning), std::string::npos) << log;
+  EXPECT_EQ(log.find(warning, log.find(warning) + 1), std::string::npos) << "one warning line:\n" << log;
+  std::tie(rc, log) = run({"--scene", "builtin:default", "--snapshot", dir + "/a.png", "--screenshot", dir + "/b.png"});
+  EXPECT_EQ(rc, 2) << log;
   std::filesystem::remove_all(dir);
 }
 

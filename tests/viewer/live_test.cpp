@@ -1,4 +1,4 @@
-// sculpt-view against a real sculptd (a replayed session, no devices): a
+// sculpt-view against a real sculptd (a replayed recording, no devices): a
 // clear message when no daemon listens; two viewers of one paused daemon
 // draw the same image, and it shows the sculpt (not the rest shape); a
 // viewer waits for a daemon, and reconnects when it restarts.
@@ -24,7 +24,7 @@ const std::string kData = SCULPT_TEST_DATA;
 std::vector<std::string> view_args(const std::string& socket, const std::string& out) {
   // No overlay: it shows the tick and latency, which differ between viewers.
   return {SCULPT_VIEW_BIN, "--socket", socket, "--headless", "--size", "480x270", "--camera", "20,25",
-          "--colormap", "--no-overlay", "--snapshot", out, "--after-frames", "3", "--after-seconds", "60"};
+          "--colormap", "--no-overlay", "--screenshot", out, "--after-frames", "3", "--after-seconds", "60"};
 }
 
 class Live : public ::testing::Test {
@@ -47,7 +47,7 @@ class Live : public ::testing::Test {
 };
 
 TEST_F(Live, SaysClearlyWhenNoDaemonListens) {
-  ChildProcess view({SCULPT_VIEW_BIN, "--socket", socket_, "--snapshot", dir_ + "/x.png"}, one_log_own_group());
+  ChildProcess view({SCULPT_VIEW_BIN, "--socket", socket_, "--screenshot", dir_ + "/x.png"}, one_log_own_group());
   const auto rc = view.wait(30s);
   ASSERT_TRUE(rc.has_value());
   EXPECT_EQ(*rc, 1);
@@ -58,7 +58,7 @@ TEST_F(Live, SaysClearlyWhenNoDaemonListens) {
 }
 
 TEST_F(Live, TwoViewersOfOnePausedDaemonDrawTheSameSculpt) {
-  auto daemon = start_daemon("replay:" + kData + "/sessions/push.jsonl");
+  auto daemon = start_daemon("replay:" + kData + "/recordings/push.jsonl");
   // Let the left tool press into the ball (5 s of simulated time, however
   // slow a sanitized daemon runs), then freeze the state.
   const auto deadline = std::chrono::steady_clock::now() + 120s;
@@ -87,7 +87,7 @@ TEST_F(Live, TwoViewersOfOnePausedDaemonDrawTheSameSculpt) {
   // The same view of the scene as loaded: the sculpted one must differ (the
   // colour map shows the dent).
   ChildProcess rest({SCULPT_VIEW_BIN, "--scene", "builtin:default", "--headless", "--size", "480x270", "--camera",
-                     "20,25", "--colormap", "--no-overlay", "--snapshot", dir_ + "/rest.png", "--quiet"},
+                     "20,25", "--colormap", "--no-overlay", "--screenshot", dir_ + "/rest.png", "--quiet"},
                     one_log_own_group());
   ASSERT_EQ(rest.wait(60s).value_or(-1), 0) << rest.out().text();
   const ImageDiff sculpted = compare(ia, view::read_png(dir_ + "/rest.png"), 24);
@@ -103,20 +103,20 @@ TEST_F(Live, WaitsForTheDaemonAndReconnectsWhenItRestarts) {
                     one_log_own_group());
   ASSERT_TRUE(view.out().wait_for("no daemon is listening", 30s)) << view.out().text();
   {
-    auto first = start_daemon("replay:" + kData + "/sessions/push.jsonl");
-    ASSERT_TRUE(view.out().wait_for("snapshot:", 30s)) << view.out().text();
+    auto first = start_daemon("replay:" + kData + "/recordings/push.jsonl");
+    ASSERT_TRUE(view.out().wait_for("keyframe:", 30s)) << view.out().text();
     first->signal(SIGTERM);
     ASSERT_TRUE(first->wait(30s).has_value());
   }
   ASSERT_TRUE(view.out().wait_for("the daemon went away", 30s)) << view.out().text();
   const std::size_t before = view.out().text().find("the daemon went away");
-  auto second = start_daemon("replay:" + kData + "/sessions/push.jsonl");
+  auto second = start_daemon("replay:" + kData + "/recordings/push.jsonl");
   ASSERT_TRUE(view.out().wait_for("connected to " + socket_, 30s)) << view.out().text();
   const auto deadline = std::chrono::steady_clock::now() + 30s;
-  while (view.out().text().find("snapshot:", before) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+  while (view.out().text().find("keyframe:", before) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(50ms);
   }
-  EXPECT_NE(view.out().text().find("snapshot:", before), std::string::npos) << view.out().text();
+  EXPECT_NE(view.out().text().find("keyframe:", before), std::string::npos) << view.out().text();
   EXPECT_TRUE(view.running()) << view.out().text();
   view.signal(SIGTERM);
   EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.out().text();

@@ -194,18 +194,18 @@ TEST(ViewerOptions, NonFiniteNumbersAreRefusedByName) {
   EXPECT_THROW(parse_vec3("0,0,-inf", "--target"), std::invalid_argument);
 }
 
-TEST(ViewerOptions, SnapshotIntoAMissingDirectoryIsRefusedAtOnce) {
+TEST(ViewerOptions, AScreenshotIntoAMissingDirectoryIsRefusedAtOnce) {
   Options o;
-  o.snapshot = "/nonexistent-sculpt-dir/out.png";
+  o.screenshot = "/nonexistent-sculpt-dir/out.png";
   try {
     check_outputs(o);
     FAIL();
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent-sculpt-dir/out.png"), std::string::npos) << e.what();
   }
-  o.snapshot = "out.png";   // the current directory
+  o.screenshot = "out.png";   // the current directory
   EXPECT_NO_THROW(check_outputs(o));
-  o.snapshot.clear();
+  o.screenshot.clear();
   EXPECT_NO_THROW(check_outputs(o));
 }
 

@@ -1,7 +1,7 @@
 // The window mode under Xvfb (a private server on a display number it picks
 // itself): the window opens, a screenshot of the X screen taken from outside
 // (XGetImage on the root window) shows the meshes, the viewer's own
-// screenshot (--snapshot from the window's back buffer) does too, and
+// screenshot (--screenshot from the window's back buffer) does too, and
 // SIGTERM closes it cleanly.
 #include <gtest/gtest.h>
 
@@ -133,9 +133,9 @@ TEST_F(WindowMode, KeysToggleTheWireframeAndTakeScreenshots) {
   EXPECT_EQ(view.wait(30s).value_or(-1), 0) << view.out().text();
 }
 
-TEST_F(WindowMode, SnapshotFromTheWindowShowsTheMesh) {
+TEST_F(WindowMode, AScreenshotFromTheWindowShowsTheMesh) {
   const std::string out = dir_ + "/shot.png";
-  ChildProcess view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--snapshot", out,
+  ChildProcess view({SCULPT_VIEW_BIN, "--window", "--scene", "builtin:default", "--size", "640x480", "--screenshot", out,
                      "--after-frames", "5", "--boxes"},
                     one_log_own_group(env()));
   ASSERT_EQ(view.wait(60s).value_or(-1), 0) << view.out().text();

@@ -326,7 +326,7 @@ def main() -> int:
                     help="run systemd-udevd (with the host's rules) in the guest before the tests")
     ap.add_argument("binaries", nargs="+", type=Path)
     args = ap.parse_args()
-    # Tests that wait on something long (a whole replayed session) scale their
+    # Tests that wait on something long (a whole replayed recording) scale their
     # own deadlines by this; it reaches the guest like every SCULPT_* variable.
     os.environ.setdefault("SCULPT_VM_SLOWDOWN", f"{args.slowdown:g}")
     for p in args.with_paths:

@@ -32,7 +32,7 @@ struct InspectArgs {
 };
 void inspect(const InspectArgs& args);
 
-// `record FILE`: the joysticks into a session file (record.cpp).
+// `record FILE`: the joysticks into a recording (record.cpp).
 struct RecordArgs {
   std::string file;
   double duration = 0;        // 0: until a signal
@@ -44,7 +44,7 @@ struct RecordArgs {
 };
 void record(const RecordArgs& args);
 
-// `replay FILE`: a session through uinput (replay.cpp).
+// `replay FILE`: a recording through uinput (replay.cpp).
 struct ReplayArgs {
   std::string file;
   double speed = 1.0;
@@ -80,13 +80,13 @@ enum class Control { reset, pause, resume };
 void control(const DaemonArgs& args, Control what);
 
 // `undo [N]`, `redo [N]` and `history` (history.cpp): the daemon's strokes.
-inline constexpr std::uint32_t kMaxEditCount = 10000;  // the daemon's max_edit_count
-struct EditArgs {
+inline constexpr std::uint32_t kMaxHistoryMoveCount = 10000;  // the daemon's max_history_move_count
+struct HistoryMoveArgs {
   DaemonArgs daemon;
   std::uint32_t count = 1;
 };
-enum class Edit { undo, redo };
-void edit(const EditArgs& args, Edit what);
+enum class HistoryMove { undo, redo };
+void move_history(const HistoryMoveArgs& args, HistoryMove what);
 inline constexpr std::uint32_t kHistoryDefaultLimit = 100;
 inline constexpr std::uint32_t kHistoryMaxLimit = 16384;  // the daemon's page, at most
 struct HistoryArgs {

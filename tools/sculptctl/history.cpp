@@ -115,7 +115,7 @@ nlohmann::json history_json(proto::History::Reader h) {
 }
 
 template <class Reply>
-void report_edit(const EditArgs& args, const char* what, Reply reply) {
+void report_history_move(const HistoryMoveArgs& args, const char* what, Reply reply) {
   const auto r = reply.getResult();
   if (args.daemon.json)
     std::cout << nlohmann::json{{"command", what},       {"ok", r.getOk()},        {"error", r.getError().cStr()},
@@ -137,20 +137,20 @@ void report_edit(const EditArgs& args, const char* what, Reply reply) {
 
 }  // namespace
 
-void edit(const EditArgs& args, Edit what) {
-  const char* name = what == Edit::undo ? "undo" : "redo";
-  if (args.count < 1 || args.count > kMaxEditCount)
-    fail(kExitUsage, fmt::format("{}: N must be 1 to {} (got {})", name, kMaxEditCount, args.count));
+void move_history(const HistoryMoveArgs& args, HistoryMove what) {
+  const char* name = what == HistoryMove::undo ? "undo" : "redo";
+  if (args.count < 1 || args.count > kMaxHistoryMoveCount)
+    fail(kExitUsage, fmt::format("{}: N must be 1 to {} (got {})", name, kMaxHistoryMoveCount, args.count));
   with_daemon(args.daemon, [&](client::Connection& c, kj::WaitScope& ws) {
     require_minor(c, kHistoryMinor, name);
-    if (what == Edit::undo) {
+    if (what == HistoryMove::undo) {
       auto req = c.session().undoRequest();
       req.setCount(args.count);
-      report_edit(args, name, req.send().wait(ws));
+      report_history_move(args, name, req.send().wait(ws));
     } else {
       auto req = c.session().redoRequest();
       req.setCount(args.count);
-      report_edit(args, name, req.send().wait(ws));
+      report_history_move(args, name, req.send().wait(ws));
     }
   });
 }

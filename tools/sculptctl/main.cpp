@@ -26,7 +26,7 @@ struct Args {
   DaemonArgs status, devices, reset, pause, resume;
   SaveArgs save;
   LoadArgs load;
-  EditArgs undo, redo;
+  HistoryMoveArgs undo, redo;
   HistoryArgs history;
   ExportArgs exported;
   HapticsArgs haptics;
@@ -44,8 +44,8 @@ void add_commands(CLI::App& app, Args& a) {
                   "weld distance as a fraction of the bounding-box diagonal (default 1e-5)");
   cmd->callback([&a] { inspect(a.inspect); });
 
-  cmd = app.add_subcommand("record", "record the joysticks and gamepads into a session file");
-  cmd->add_option("FILE", a.record.file, "session file to write (JSON Lines, docs/session-format.md)")->required();
+  cmd = app.add_subcommand("record", "record the joysticks and gamepads into a recording");
+  cmd->add_option("FILE", a.record.file, "recording to write (JSON Lines, docs/recording-format.md)")->required();
   cmd->add_option("--duration", a.record.duration, "seconds to record (default: until Ctrl-C)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--wait-devices", a.record.wait_for, "wait until this many devices are present before starting");
@@ -58,8 +58,8 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->callback([&a] { record(a.record); });
 
   cmd = app.add_subcommand(
-      "replay", "play a recorded session through uinput (virtual devices that answer FF; needs /dev/uinput)");
-  cmd->add_option("FILE", a.replay.file, "session file (docs/session-format.md)")->required();
+      "replay", "play a recording through uinput (virtual devices that answer FF; needs /dev/uinput)");
+  cmd->add_option("FILE", a.replay.file, "recording (docs/recording-format.md)")->required();
   cmd->add_option("--speed", a.replay.speed, "playback speed factor (default 1)")->check(CLI::PositiveNumber);
   cmd->add_option("--settle", a.replay.settle,
                   "seconds between creating the devices and the first frame, for clients to open them (default 1)")
@@ -89,12 +89,12 @@ void add_commands(CLI::App& app, Args& a) {
   cmd->callback([&a] { load(a.load); });
 
   for (auto [name, help, args, what] :
-       {std::tuple{"undo", "undo the last N strokes (the daemon's history)", &a.undo, Edit::undo},
-        std::tuple{"redo", "redo the last N undone strokes", &a.redo, Edit::redo}}) {
+       {std::tuple{"undo", "undo the last N strokes (the daemon's history)", &a.undo, HistoryMove::undo},
+        std::tuple{"redo", "redo the last N undone strokes", &a.redo, HistoryMove::redo}}) {
     cmd = app.add_subcommand(name, help);
-    cmd->add_option("N", args->count, "how many strokes (default 1)")->check(CLI::Range(1u, kMaxEditCount));
+    cmd->add_option("N", args->count, "how many strokes (default 1)")->check(CLI::Range(1u, kMaxHistoryMoveCount));
     add_daemon_options(*cmd, args->daemon);
-    cmd->callback([args = args, what = what] { edit(*args, what); });
+    cmd->callback([args = args, what = what] { move_history(*args, what); });
   }
 
   cmd = app.add_subcommand("history", "the daemon's strokes (tools, mesh, ticks, vertices, undo data) and budget");

@@ -1,6 +1,6 @@
 // `sculptctl record FILE [--duration S]`: captures the joysticks and gamepads
-// present (and any plugged in meanwhile) into a session file
-// (docs/session-format.md) until the duration ends or SIGINT/SIGTERM.
+// present (and any plugged in meanwhile) into a recording
+// (docs/recording-format.md) until the duration ends or SIGINT/SIGTERM.
 #include <poll.h>
 #include <signal.h>
 #include <syslog.h>
@@ -17,7 +17,7 @@
 #include "stop_signal.hpp"
 #include "input/device_manager.hpp"
 #include "input/evdev_device.hpp"
-#include "input/session.hpp"
+#include "input/recording.hpp"
 
 namespace sculpt::ctl {
 namespace {
@@ -43,7 +43,7 @@ class Recorder : public input::DeviceListener {
   }
   void on_frame(const input::InputFrame& f) override {
     if (!started_ || !index_.count(f.slot)) return;
-    input::SessionFrame s;
+    input::RecordingFrame s;
     s.t_us = std::max<std::int64_t>(0, f.kernel_time_us - t0_us_);
     s.device = index_[f.slot];
     s.events.assign(f.events.begin(), f.events.begin() + f.count);
@@ -60,7 +60,7 @@ class Recorder : public input::DeviceListener {
     t0_us_ = input::monotonic_us();
   }
   const std::vector<input::DeviceInfo>& devices() const { return devices_; }
-  const std::vector<input::SessionFrame>& frames() const { return frames_; }
+  const std::vector<input::RecordingFrame>& frames() const { return frames_; }
 
  private:
   bool verbose_;
@@ -68,7 +68,7 @@ class Recorder : public input::DeviceListener {
   std::int64_t t0_us_ = 0;
   std::map<std::uint8_t, std::uint32_t> index_;
   std::vector<input::DeviceInfo> devices_;
-  std::vector<input::SessionFrame> frames_;
+  std::vector<input::RecordingFrame> frames_;
 };
 
 void poll_once(input::DeviceManager& manager, int timeout_ms) {
@@ -116,18 +116,18 @@ void record(const RecordArgs& args) {
   // What is already queued belongs to the recording too.
   for (int fd : manager.fds()) manager.dispatch(fd);
 
-  input::Session session;
-  session.header.devices = recorder.devices();
-  session.header.description = fmt::format("recorded by sculptctl record");
-  session.frames = recorder.frames();
+  input::Recording recording;
+  recording.header.devices = recorder.devices();
+  recording.header.description = fmt::format("recorded by sculptctl record");
+  recording.frames = recorder.frames();
   try {
-    input::write_session(args.file, session);
-  } catch (const input::SessionError& e) {
+    input::write_recording(args.file, recording);
+  } catch (const input::RecordingError& e) {
     cli::error(fmt::format("record: {}", e.what()));
     throw CommandFailed{kExitCommandFailed};
   }
-  fmt::print("recorded {} frames from {} device(s), {:.2f} s\n", session.frames.size(), session.header.devices.size(),
-             session.frames.empty() ? 0.0 : session.frames.back().t_us / 1e6);
+  fmt::print("recorded {} frames from {} device(s), {:.2f} s\n", recording.frames.size(), recording.header.devices.size(),
+             recording.frames.empty() ? 0.0 : recording.frames.back().t_us / 1e6);
 }
 
 }  // namespace sculpt::ctl

@@ -1,4 +1,4 @@
-// `sculptctl replay FILE`: plays a recorded session through uinput. Each
+// `sculptctl replay FILE`: plays a recording through uinput. Each
 // recorded device becomes a virtual device with the same name, ids, axes
 // (absinfo), buttons and FF bits, which ANSWERS force-feedback uploads (a
 // client's EVIOCSFF would otherwise block for 30 s). Frames go out at their
@@ -21,7 +21,7 @@
 #include "cli/conventions.hpp"
 #include "commands.hpp"
 #include "stop_signal.hpp"
-#include "input/session.hpp"
+#include "input/recording.hpp"
 #include "uinput/virtual_device.hpp"
 
 namespace sculpt::ctl {
@@ -77,10 +77,10 @@ bool sleep_until(const timespec& deadline) {
 void replay(const ReplayArgs& args) {
   catch_stop_signals();
 
-  std::unique_ptr<input::SessionReader> reader;
+  std::unique_ptr<input::RecordingReader> reader;
   try {
-    reader = std::make_unique<input::SessionReader>(args.file);
-  } catch (const input::SessionError& e) {
+    reader = std::make_unique<input::RecordingReader>(args.file);
+  } catch (const input::RecordingError& e) {
     cli::error(fmt::format("replay: {}", e.what()));
     throw CommandFailed{kExitUsage};
   }
@@ -131,7 +131,7 @@ void replay(const ReplayArgs& args) {
       devices[f->device]->emit_all(buf);
       ++frames;
     }
-  } catch (const input::SessionError& e) {
+  } catch (const input::RecordingError& e) {
     cli::error(fmt::format("replay: {}", e.what()));
     throw CommandFailed{kExitUsage};
   }

@@ -18,8 +18,8 @@ void save(const SaveArgs& args) {
   sim::TriangleMesh out;
   std::size_t meshes = 0;
   with_daemon(args.daemon, [&](client::Connection& c, kj::WaitScope& ws) {
-    auto reply = c.session().snapshotRequest().send().wait(ws);
-    for (const auto m : reply.getSnapshot().getMeshes()) {
+    auto reply = c.session().keyframeRequest().send().wait(ws);
+    for (const auto m : reply.getKeyframe().getMeshes()) {
       if (!args.mesh.empty() && args.mesh != m.getName().cStr()) continue;
       const auto base = static_cast<std::uint32_t>(out.positions.size());
       const auto pos = m.getPositions();

@@ -38,7 +38,7 @@ class ViewerImpl final : public proto::Viewer::Server {
   explicit ViewerImpl(std::shared_ptr<LiveSource*> owner) : owner_(std::move(owner)) {}
 
  protected:
-  kj::Promise<void> snapshot(SnapshotContext context) override;
+  kj::Promise<void> keyframe(KeyframeContext context) override;
   kj::Promise<void> frame(FrameContext context) override;
 
  private:
@@ -95,7 +95,7 @@ class LiveSource final : public Source {
     if (!fatal_.empty()) throw std::runtime_error(fatal_);
   }
 
-  bool has_state() const override { return mirror_.has_snapshot(); }
+  bool has_state() const override { return mirror_.has_keyframe(); }
 
   std::vector<std::string> describe() const override {
     std::vector<std::string> lines;
@@ -109,7 +109,7 @@ class LiveSource final : public Source {
       lines.push_back(fmt::format("AWAKE {}/{} VERTICES  VIEWERS {}  DEVICES {}", s->vertices_awake,
                                   s->vertices_total, s->viewers, s->devices));
     }
-    if (mirror_.has_snapshot()) {
+    if (mirror_.has_keyframe()) {
       lines.push_back(fmt::format("TICK {}  FRAMES {}  LAG {:.1f} MS", mirror_.sequence(), mirror_.frames(),
                                   lag_ms_));
     }
@@ -117,11 +117,11 @@ class LiveSource final : public Source {
   }
 
   // --- called by ViewerImpl, inside pump() ---
-  void on_snapshot(proto::Snapshot::Reader s) {
+  void on_keyframe(proto::Keyframe::Reader s) {
     try {
       mirror_.apply(s);
     } catch (const client::MirrorError& e) {
-      fatal_ = fmt::format("the daemon sent a snapshot this viewer cannot use: {}", e.what());
+      fatal_ = fmt::format("the daemon sent a keyframe this viewer cannot use: {}", e.what());
       return;
     }
     ViewModel m;
@@ -143,20 +143,20 @@ class LiveSource final : public Source {
                       {b.getMax().getX(), b.getMax().getY(), b.getMax().getZ()}};
     if (m.scene_bounds.empty()) m.scene_bounds = m.bounds_now();
     model_ = std::move(m);
-    say(fmt::format("snapshot: {} meshes, tick {}", model_.meshes.size(), model_.sequence));
+    say(fmt::format("keyframe: {} meshes, tick {}", model_.meshes.size(), model_.sequence));
   }
 
   void on_frame(proto::DeltaFrame::Reader f) {
-    if (!mirror_.has_snapshot()) return;
+    if (!mirror_.has_keyframe()) return;
     std::span<const client::ChangedRange> ranges;
     try {
       ranges = mirror_.apply(f);
     } catch (const client::MirrorError& e) {
-      // Out of step with the daemon: start over with a fresh snapshot.
+      // Out of step with the daemon: start over with a fresh keyframe.
       lost(fmt::format("out of step with the daemon ({}): resubscribing", e.what()));
       return;
     }
-    // model_.meshes was built in the mirror's order (on_snapshot), so a
+    // model_.meshes was built in the mirror's order (on_keyframe), so a
     // mirror index is a model index; the mirror already holds the new bounds.
     for (const auto& r : ranges) {
       const auto& mm = mirror_.meshes()[r.mesh];
@@ -267,8 +267,8 @@ class LiveSource final : public Source {
   double measured_hz_ = 0;
 };
 
-kj::Promise<void> ViewerImpl::snapshot(SnapshotContext context) {
-  if (LiveSource* s = *owner_) s->on_snapshot(context.getParams().getSnapshot());
+kj::Promise<void> ViewerImpl::keyframe(KeyframeContext context) {
+  if (LiveSource* s = *owner_) s->on_keyframe(context.getParams().getKeyframe());
   return kj::READY_NOW;
 }
 

@@ -24,15 +24,15 @@ int main(int argc, char** argv) {
     }
     // Images on request are made offscreen unless a window is asked for.
     const bool headless = options->headless || !display ||
-                          (!options->window && (!options->snapshot.empty() || !options->frames_dir.empty()));
+                          (!options->window && (!options->screenshot.empty() || !options->frames_dir.empty()));
 #ifndef SCULPT_VIEW_HAVE_SDL
     if (!headless) {
       sculpt::cli::error("built without SDL2: no window mode (use --headless)");
       return 2;
     }
 #endif
-    if (headless && options->snapshot.empty() && options->frames_dir.empty()) {
-      sculpt::cli::error(fmt::format("{}: nothing to write; give --snapshot FILE.png or --frames-dir DIR, "
+    if (headless && options->screenshot.empty() && options->frames_dir.empty()) {
+      sculpt::cli::error(fmt::format("{}: nothing to write; give --screenshot FILE.png or --frames-dir DIR, "
                                      "or run it under a display for a window",
                                      display ? "--headless" : "no display (neither DISPLAY nor WAYLAND_DISPLAY is set)"));
       return 2;

@@ -62,9 +62,9 @@ std::array<float, 3> parse_vec3(const std::string& text, const char* what) {
 }
 
 void check_outputs(const Options& o) {
-  const auto dir = std::filesystem::path(o.snapshot).parent_path();
-  if (!o.snapshot.empty() && !dir.empty() && !std::filesystem::is_directory(dir)) {
-    throw std::runtime_error(fmt::format("{}: cannot write: no directory {}", o.snapshot, dir.string()));
+  const auto dir = std::filesystem::path(o.screenshot).parent_path();
+  if (!o.screenshot.empty() && !dir.empty() && !std::filesystem::is_directory(dir)) {
+    throw std::runtime_error(fmt::format("{}: cannot write: no directory {}", o.screenshot, dir.string()));
   }
   if (!o.screenshot_dir.empty() && !std::filesystem::is_directory(o.screenshot_dir)) {
     throw std::runtime_error(fmt::format("--screenshot-dir {}: no such directory", o.screenshot_dir));
@@ -84,11 +84,19 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
                                         "$XDG_RUNTIME_DIR/sculptd, /run/sculptd)")->type_name("PATH");
   app.add_option("--scene", o.scene, "render a scene file (or builtin:default) without a daemon")->type_name("SCENE");
   app.add_flag("--headless", o.headless, "render offscreen (EGL surfaceless); the default without a display");
-  app.add_flag("--window", o.window, "open a window (SDL2) even when --snapshot is given");
-  app.add_option("--snapshot", o.snapshot, "write a PNG and exit (after --after-frames/--after-seconds)")->type_name("FILE.png");
-  app.add_option("--after-frames", after_frames, "frames to render (once the first state arrived) before --snapshot")
+  app.add_flag("--window", o.window, "open a window (SDL2) even when --screenshot is given");
+  auto* screenshot =
+      app.add_option("--screenshot", o.screenshot, "write a PNG and exit (after --after-frames/--after-seconds)")
+          ->type_name("FILE.png");
+  // The option's old name: users' scripts still pass it.
+  std::string deprecated_snapshot;
+  app.add_option("--snapshot", deprecated_snapshot, "deprecated: --screenshot")
+      ->type_name("FILE.png")
+      ->excludes(screenshot)
+      ->group("");  // not in --help
+  app.add_option("--after-frames", after_frames, "frames to render (once the first state arrived) before --screenshot")
       ->check(CLI::Range(1L, 100000000L));
-  app.add_option("--after-seconds", after_seconds, "seconds to run before --snapshot (or before exiting)")
+  app.add_option("--after-seconds", after_seconds, "seconds to run before --screenshot (or before exiting)")
       ->check(CLI::Range(0.0, 1e7));
   app.add_option("--frames-dir", o.frames_dir, "write every rendered frame as DIR/frame_NNNNNN.png")->type_name("DIR");
   app.add_option("--fps", o.fps, "frames rendered per second (and of --frames-dir)")->check(CLI::Range(0.1, 1000.0));
@@ -113,6 +121,10 @@ std::optional<Options> parse_options(int argc, char** argv, int& exit_code) {
   if (const auto status = cli::parse(app, argc, argv)) {
     exit_code = *status;
     return std::nullopt;
+  }
+  if (!deprecated_snapshot.empty()) {
+    cli::warning("--snapshot is deprecated: use --screenshot");
+    o.screenshot = deprecated_snapshot;
   }
   try {
     std::tie(o.width, o.height) = parse_size(size);

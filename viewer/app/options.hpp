@@ -19,7 +19,7 @@ struct Options {
   std::string scene;               // --scene FILE|builtin:default: offline, no daemon
   bool headless = false;           // forced, or chosen because no display exists
   bool window = false;             // forced --window
-  std::string snapshot;            // --snapshot FILE.png
+  std::string screenshot;          // --screenshot FILE.png
   std::optional<long> after_frames;
   std::optional<double> after_seconds;
   std::string frames_dir;          // --frames-dir DIR
@@ -38,7 +38,7 @@ struct Options {
 // Parses argv; on --help/--version or an error prints and returns the exit
 // code to use (0 or 2) in `exit_code` and nullopt.
 std::optional<Options> parse_options(int argc, char** argv, int& exit_code);
-// Before the run: throws std::runtime_error naming a --snapshot whose
+// Before the run: throws std::runtime_error naming a --screenshot whose
 // directory is missing, found now rather than after the run it was to record.
 void check_outputs(const Options& options);
 

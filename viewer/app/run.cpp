@@ -85,7 +85,7 @@ double Run::elapsed_s() const {
   return std::chrono::duration<double>(Clock::now() - start_).count();
 }
 
-bool Run::snapshot_due() const {
+bool Run::screenshot_due() const {
   if (options_.after_frames) return frames_ >= *options_.after_frames;
   if (options_.after_seconds) return elapsed_s() >= *options_.after_seconds;
   return frames_ >= 1;
@@ -93,30 +93,30 @@ bool Run::snapshot_due() const {
 
 bool Run::finished() const {
   if (g_stop.load()) return true;
-  if (options_.snapshot.empty()) {
+  if (options_.screenshot.empty()) {
     if (options_.after_frames && frames_ >= *options_.after_frames) return true;
   }
   if (options_.after_seconds && elapsed_s() >= *options_.after_seconds) {
-    // With a snapshot to take, the time limit ends the run only when the
-    // snapshot is waiting for frames that will not come (no state yet).
-    return options_.snapshot.empty() || !source_.has_state() || options_.after_frames.has_value();
+    // With a screenshot to take, the time limit ends the run only when the
+    // screenshot is waiting for frames that will not come (no state yet).
+    return options_.screenshot.empty() || !source_.has_state() || options_.after_frames.has_value();
   }
   return false;
 }
 
 std::string Run::failure() const {
-  if (!options_.snapshot.empty() && !snapshot_written_) {
-    if (g_stop.load()) return "stopped by a signal before the snapshot";
-    if (!source_.has_state()) return fmt::format("nothing to show after {:.1f} s: no snapshot from the daemon", elapsed_s());
+  if (!options_.screenshot.empty() && !screenshot_written_) {
+    if (g_stop.load()) return "stopped by a signal before the screenshot";
+    if (!source_.has_state()) return fmt::format("nothing to show after {:.1f} s: no keyframe from the daemon", elapsed_s());
     return fmt::format("the time limit passed after {} of {} frames", frames_, options_.after_frames.value_or(1));
   }
   return "";
 }
 
-void Run::write_snapshot(const Image& image) {
-  write_png(options_.snapshot, image);
-  snapshot_written_ = true;
-  if (!options_.quiet) cli::note(fmt::format("wrote {} ({}x{})", options_.snapshot, image.width, image.height));
+void Run::write_screenshot(const Image& image) {
+  write_png(options_.screenshot, image);
+  screenshot_written_ = true;
+  if (!options_.quiet) cli::note(fmt::format("wrote {} ({}x{})", options_.screenshot, image.width, image.height));
 }
 
 }  // namespace sculpt::view

@@ -1,5 +1,5 @@
 // The two ways sculpt-view runs (offscreen, or in a window) and what they
-// share: when to write the snapshot and the image sequence, when to stop,
+// share: when to write the screenshot and the image sequence, when to stop,
 // where the camera starts, what the overlay says.
 #pragma once
 
@@ -38,7 +38,7 @@ class Run {
   std::vector<std::string> overlay() const;
 
   // After a frame was drawn; `read` returns its pixels. Adds it to the
-  // sequence (frame_sequence.hpp) and writes the snapshot when due. Returns false when the run is over.
+  // sequence (frame_sequence.hpp) and writes the screenshot when due. Returns false when the run is over.
   // The pixels are read at most once per frame. Also counts the frame for the
   // overlay's FPS.
   template <class ReadPixels>
@@ -49,8 +49,8 @@ class Run {
       std::optional<Image> image;
       const auto pixels = [&]() -> const Image& { return image ? *image : image.emplace(read()); };
       if (sequence_) sequence_->add(pixels(), std::chrono::steady_clock::now());
-      if (!options_.snapshot.empty() && snapshot_due()) {
-        write_snapshot(pixels());
+      if (!options_.screenshot.empty() && screenshot_due()) {
+        write_screenshot(pixels());
         return false;
       }
     }
@@ -58,15 +58,15 @@ class Run {
   }
 
   bool finished() const;      // the time or frame limit passed, or a stop signal
-  std::string failure() const;  // why the run ended without its snapshot, or ""
+  std::string failure() const;  // why the run ended without its screenshot, or ""
   double elapsed_s() const;
   // 0, or 1 after printing failure().
   int exit_code() const;
 
  private:
   void count_frame();
-  bool snapshot_due() const;
-  void write_snapshot(const Image& image);
+  bool screenshot_due() const;
+  void write_screenshot(const Image& image);
 
   const Options& options_;
   Source& source_;
@@ -74,7 +74,7 @@ class Run {
   bool placed_ = false;
   long frames_ = 0;
   std::optional<FrameSequence> sequence_;  // with --frames-dir
-  bool snapshot_written_ = false;
+  bool screenshot_written_ = false;
   const bool show_fps_;
   double fps_ = 0;
   long fps_frames_ = 0;

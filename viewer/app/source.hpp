@@ -17,7 +17,7 @@ class Source {
   // Applies whatever arrived to the model, waiting at most `timeout_s` for it
   // (0: only what is already there). Throws std::runtime_error on a fatal error.
   virtual void pump(double timeout_s) = 0;
-  // The first complete state (scene loaded, snapshot received) is in the model.
+  // The first complete state (scene loaded, keyframe received) is in the model.
   virtual bool has_state() const = 0;
   // Overlay lines describing the source (stats, connection state).
   virtual std::vector<std::string> describe() const = 0;

@@ -62,7 +62,7 @@ class ViewMesh {
   void set_positions(std::span<const std::uint32_t> indices, std::span<const float> xyz);
   // Vertices [begin, end) from `xyz` (3 floats per vertex of the range).
   void set_range(std::uint32_t begin, std::uint32_t end, std::span<const float> xyz);
-  // Every vertex at once (a new snapshot of the same topology).
+  // Every vertex at once (a new keyframe of the same topology).
   void set_all_positions(std::span<const float> xyz);
   Aabb compute_bounds() const;
 
@@ -134,7 +134,7 @@ struct ViewModel {
   Aabb scene_bounds = Aabb::none();
   std::optional<ViewStats> stats;    // the daemon's, when live
   std::uint64_t sequence = 0;        // sim tick shown
-  std::uint64_t generation = 0;      // bumped on every new snapshot (GPU buffers are rebuilt)
+  std::uint64_t generation = 0;      // bumped on every new keyframe (GPU buffers are rebuilt)
 
   ViewMesh* find_mesh(std::uint32_t id);
   Aabb bounds_now() const;           // meshes and tools as they are

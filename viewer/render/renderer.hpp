@@ -45,7 +45,7 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   // Brings the GPU copies up to date: whole buffers for new meshes (a new
-  // snapshot), glBufferSubData over the dirty ranges otherwise; the
+  // keyframe), glBufferSubData over the dirty ranges otherwise; the
   // wireframe's edge buffers when options.wireframe asks for them.
   UploadStats sync(ViewModel& model, const RenderOptions& options);
 

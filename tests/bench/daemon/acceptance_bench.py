@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """The acceptance benchmark of issue 5: a 50k-vertex scene sculpted by a
-replayed session for 30 s at 1 kHz, stats from sculptd's own --stats-json.
+replayed recording for 30 s at 1 kHz, stats from sculptd's own --stats-json.
 
-    acceptance_bench.py --sculptd BIN --scene S --session R [--duration 30]
+    acceptance_bench.py --sculptd BIN --scene S --recording R [--duration 30]
                         [--repeats 3] [--realtime both|on|off] [--config FILE]
 
 Runs `sculptd --scene S --input replay:R --duration D --stats-json F`
@@ -13,7 +13,7 @@ sim thread's faults and preemptions, the last overruns tick by tick) and the hos
 of /proc/stat's `cpu` line (column 9, in USER_HZ ticks: 1/100 s) read before
 and after, with the load average at the start. It prints numbers and asserts
 nothing (timings are not tests); it fails only if sculptd fails or the replay
-is not deterministic (same session, different final mesh hash).
+is not deterministic (same recording, different final mesh hash).
 """
 import argparse
 import json
@@ -43,7 +43,7 @@ def loadavg():
 def run(a, realtime, tmp, i):
     stats = os.path.join(tmp, f"stats-{realtime}-{i}.json")
     hash_out = os.path.join(tmp, f"hash-{realtime}-{i}")
-    cmd = [a.sculptd, "--config", a.config, "--scene", a.scene, "--input", "replay:" + a.session,
+    cmd = [a.sculptd, "--config", a.config, "--scene", a.scene, "--input", "replay:" + a.recording,
            "--duration", str(a.duration), "--stats-json", stats, "--hash-out", hash_out, "--log-level", "warning"]
     if realtime:
         cmd.append("--realtime")
@@ -99,14 +99,14 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--sculptd", required=True)
     ap.add_argument("--scene", required=True)
-    ap.add_argument("--session", required=True)
+    ap.add_argument("--recording", required=True)
     ap.add_argument("--duration", type=float, default=30.0)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--realtime", choices=["both", "on", "off"], default="both")
     ap.add_argument("--config", default=os.devnull, help="sculptd config file (default: none, every default)")
     a = ap.parse_args()
     modes = {"both": [False, True], "on": [True], "off": [False]}[a.realtime]
-    print(f"# sculptd acceptance: {a.scene}, replay:{a.session}, {a.duration} s, {a.repeats} run(s) per mode")
+    print(f"# sculptd acceptance: {a.scene}, replay:{a.recording}, {a.duration} s, {a.repeats} run(s) per mode")
     hashes = set()
     with tempfile.TemporaryDirectory() as tmp:
         for rt in modes:
@@ -127,7 +127,7 @@ def main():
                   f"{med(lambda s: s['stage_us']['integration']['p99']):.1f} us")
     print(f"final mesh hash: {', '.join(sorted(hashes))}")
     if len(hashes) != 1:
-        print("FAIL: the same session gave different meshes", file=sys.stderr)
+        print("FAIL: the same recording gave different meshes", file=sys.stderr)
         return 1
     return 0
 

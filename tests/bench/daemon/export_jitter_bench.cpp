@@ -1,5 +1,5 @@
 // The sim loop while a sculpt is exported (issue 29): sculptd on a big clay
-// scene, a recorded session sculpting it, its store on, and `sculptctl
+// scene, a recording sculpting it, its store on, and `sculptctl
 // export` (a child process writing the file, as a person would) started at
 // the beginning of some windows and not others. Per kind of window it prints
 // the loop's wake-up jitter p50/p99/max, from the loop's own histogram
@@ -7,8 +7,8 @@
 // cause, and the sim thread's page faults and involuntary switches: side by
 // side, one daemon run. Numbers only: it fails only if something breaks.
 //
-// The session's phases differ (grabs, rests), so which windows export is
-// balanced: the session is played `--loops` + 1 times back to back, cut into
+// The recording's phases differ (grabs, rests), so which windows export is
+// balanced: the recording is played `--loops` + 1 times back to back, cut into
 // windows aligned to the loop by the daemon's own tick count. The first
 // loop is not measured: on the pristine ball its first grabs are the
 // simulation's own long steps (docs/daemon.md, "Why ticks overrun"), which
@@ -19,7 +19,7 @@
 // then show what the schedule alone does. EXPORT_JITTER_DEBUG=1 prints each
 // window's overruns (stderr).
 //
-//   export_jitter_bench SCENE SESSION [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]
+//   export_jitter_bench SCENE RECORDING [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]
 // SCENE is a scene file; with --subdivisions K its icospheres are rebuilt
 // with K subdivisions in a temporary copy (its meshes must be builtin: 7 makes
 // the acceptance layout ~173k vertices, the size the issue measured).
@@ -107,10 +107,10 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
-// `session` played `loops` times, each copy `period_us` after the last;
-// returns the period (the session's length and a second of rest).
-std::uint64_t loop_session(const std::string& session, int loops, const fs::path& out) {
-  std::ifstream in(session);
+// `recording` played `loops` times, each copy `period_us` after the last;
+// returns the period (the recording's length and a second of rest).
+std::uint64_t loop_recording(const std::string& recording, int loops, const fs::path& out) {
+  std::ifstream in(recording);
   std::string header, line;
   std::getline(in, header);
   std::vector<nlohmann::json> frames;
@@ -132,7 +132,7 @@ std::uint64_t loop_session(const std::string& session, int loops, const fs::path
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
-                 "usage: %s SCENE SESSION [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]\n",
+                 "usage: %s SCENE RECORDING [--window S] [--loops N] [--realtime 0|1] [--subdivisions K] [--no-export]\n",
                  argv[0]);
     return 2;
   }
@@ -169,11 +169,11 @@ int main(int argc, char** argv) {
     scene = (tmp / "scene.toml").string();
     std::ofstream(scene) << text;
   }
-  const std::uint64_t period_us = loop_session(argv[2], loops + 1, tmp / "session.jsonl");
+  const std::uint64_t period_us = loop_recording(argv[2], loops + 1, tmp / "recording.jsonl");
   const std::uint64_t period_ticks = period_us / 1000, window_ticks = static_cast<std::uint64_t>(window_s * 1000);
   const std::uint64_t windows_per_loop = period_ticks > 1000 ? (period_ticks - 1000) / window_ticks : 0;
   const std::string socket = (tmp / "sculptd.sock").string();
-  std::vector<std::string> args = {"--scene", scene, "--input", "replay:" + (tmp / "session.jsonl").string(),
+  std::vector<std::string> args = {"--scene", scene, "--input", "replay:" + (tmp / "recording.jsonl").string(),
                                    "--socket", socket, "--state-dir", (tmp / "state").string(), "--log-level", "notice"};
   if (realtime) args.push_back("--realtime");
   int status = 0;

@@ -1,10 +1,10 @@
 // The status-latency benchmark: how long another client's status call waits
 // while sculptd serves what a client can throw at it. sculptd runs the 50k
-// scene with the benchmark session sculpting it; a probe (status_probe.hpp)
+// scene with the benchmark recording sculpting it; a probe (status_probe.hpp)
 // asks for the status every 10 ms from its own connection, and each phase
 // does one thing meanwhile:
 //   idle        nothing more
-//   flood       one raw client sends 2000 snapshot() calls it never reads,
+//   flood       one raw client sends 2000 keyframe() calls it never reads,
 //               then closes (as fault_soak does), again and again
 //   flood-held  the same, but the client holds the connection until the
 //               daemon drops it (over max_queued_bytes)
@@ -12,7 +12,7 @@
 //               as fault_e2e's), seconds of building off the io loop
 //   bursts      garbage, 200 connect/close at once, 20 silent connections
 //   viewers     six viewers at 60 fps, three of them not reading
-// Each phase runs on a fresh daemon (the session at the same point), and per
+// Each phase runs on a fresh daemon (the recording at the same point), and per
 // phase it prints the calls, p50/p99/max of the wait, and whose it was: the
 // probe thread's and the daemon's io thread's run-queue time during the call
 // (/proc/.../schedstat field 2), all the daemon's threads' summed, and the
@@ -21,7 +21,7 @@
 // for a CPU while the io thread works, too) and is printed apart.
 // Numbers only: it fails only if the daemon fails or a call is not answered.
 //
-//   status_bench SCENE SESSION [--seconds S] [--rounds N] [--phases a,b,..]
+//   status_bench SCENE RECORDING [--seconds S] [--rounds N] [--phases a,b,..]
 //                [--sculptd PATH]... [--realtime 0|1]
 // Several --sculptd alternate phase by phase (a before/after comparison in
 // one run, on the same machine at the same time). STATUS_BENCH_DEBUG=1 prints
@@ -55,7 +55,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::string scene, session;
+  std::string scene, recording;
   double seconds = 6;
   int rounds = 2;
   std::vector<std::string> phases = {"idle", "flood", "flood-held", "load", "bursts", "viewers"};
@@ -98,7 +98,7 @@ void run_phase(const std::string& phase, const std::string& socket, const Option
       {
         RawRpc raw(socket);
         raw.hello();
-        for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+        for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
         }
       }
       std::this_thread::sleep_for(100ms);
@@ -107,7 +107,7 @@ void run_phase(const std::string& phase, const std::string& socket, const Option
     while (Clock::now() < end) {
       RawRpc raw(socket);
       raw.hello();
-      for (std::uint32_t q = 2; q < 2002 && raw.snapshot(q); ++q) {
+      for (std::uint32_t q = 2; q < 2002 && raw.keyframe(q); ++q) {
       }
       if (!raw.closed_within(60s)) throw Failed("the daemon never dropped a client flooding unread calls");
     }
@@ -150,19 +150,19 @@ std::uint64_t io_cpu_ns(pid_t pid) {
   return on_cpu;
 }
 
-// One message's worth of the io loop's work: a snapshot() answer to a client
+// One message's worth of the io loop's work: a keyframe() answer to a client
 // that reads it (what a flood asks for 2000 times), its size and the io
 // thread's CPU time during the call, per call.
-struct SnapshotCost {
+struct KeyframeCost {
   std::vector<double> cpu_ms;
   double bytes = 0;
 };
-void measure_snapshot(const std::string& socket, pid_t pid, SnapshotCost& out) {
+void measure_keyframe(const std::string& socket, pid_t pid, KeyframeCost& out) {
   auto io = kj::setupAsyncIo();
   client::Connection c(io, socket, "status-bench");
   for (int i = 0; i < 10; ++i) {
     const std::uint64_t cpu0 = io_cpu_ns(pid);
-    auto r = c.session().snapshotRequest().send().wait(io.waitScope);
+    auto r = c.session().keyframeRequest().send().wait(io.waitScope);
     out.cpu_ms.push_back(static_cast<double>(io_cpu_ns(pid) - cpu0) * 1e-6);
     out.bytes = static_cast<double>(r.totalSize().wordCount * 8);
   }
@@ -185,13 +185,13 @@ void print_row(const std::string& label, const Samples& samples) {
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
-                 "usage: %s SCENE SESSION [--seconds S] [--rounds N] [--phases a,b,..] [--sculptd PATH]... "
+                 "usage: %s SCENE RECORDING [--seconds S] [--rounds N] [--phases a,b,..] [--sculptd PATH]... "
                  "[--realtime 0|1]\n",
                  argv[0]);
     return 2;
   }
   Options o;
-  o.scene = argv[1], o.session = argv[2];
+  o.scene = argv[1], o.recording = argv[2];
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--seconds") o.seconds = std::stod(v);
@@ -211,21 +211,21 @@ int main(int argc, char** argv) {
   std::mt19937 rng(19);
   // By binary, then phase: every call of every round.
   std::map<std::string, std::map<std::string, Samples>> all;
-  std::map<std::string, SnapshotCost> snapshot_cost;
+  std::map<std::string, KeyframeCost> keyframe_cost;
   try {
     for (int round = 0; round < o.rounds; ++round)
       for (const std::string& phase : o.phases)
         for (const std::string& binary : o.binaries) {
           const std::string socket = (dir / "sculptd.sock").string();
           ::unlink(socket.c_str());
-          std::vector<std::string> args = {"--scene", o.scene, "--input", "replay:" + o.session, "--socket", socket,
+          std::vector<std::string> args = {"--scene", o.scene, "--input", "replay:" + o.recording, "--socket", socket,
                                            "--log-level", "notice"};
           if (o.realtime) args.push_back("--realtime");
           Sculptd d(args, binary);
           if (!d.wait_for_log("sculptd ready", 120s)) throw Failed("sculptd did not start:\n" + d.log());
-          measure_snapshot(socket, d.pid(), snapshot_cost[binary]);
+          measure_keyframe(socket, d.pid(), keyframe_cost[binary]);
           StatusProbe probe(socket, d.pid());
-          // The first calls connect; the session gets going.
+          // The first calls connect; the recording gets going.
           std::this_thread::sleep_for(1s);
           probe.take_samples();
           run_phase(phase, socket, o, dir, rng);
@@ -248,15 +248,15 @@ int main(int argc, char** argv) {
   }
   fs::remove_all(dir);
   std::printf("status_bench: %s + %s, a status call every 10 ms, %d rounds of %.0f s per phase%s\n", o.scene.c_str(),
-              o.session.c_str(), o.rounds, o.seconds, o.realtime ? ", sculptd --realtime" : "");
+              o.recording.c_str(), o.rounds, o.seconds, o.realtime ? ", sculptd --realtime" : "");
   std::printf("  ms, p50 p99 max of: the wait; the probe thread's run-queue time during it; the daemon io thread's;\n"
               "  all daemon threads' (summed); the daemon's part = wait - probe's - io thread's queueing; and the\n"
               "  largest wait - probe's - all daemon threads' queueing (a lower bound of the daemon's part)\n");
   for (const std::string& binary : o.binaries) {
     if (o.binaries.size() > 1) std::printf(" sculptd %s\n", binary.c_str());
-    const SnapshotCost& sc = snapshot_cost[binary];
+    const KeyframeCost& sc = keyframe_cost[binary];
     const Spread cpu = spread(sc.cpu_ms);
-    std::printf("  one snapshot() answer (%.1f MB): the io thread's CPU per call p50 %.2f ms, max %.2f ms\n",
+    std::printf("  one keyframe() answer (%.1f MB): the io thread's CPU per call p50 %.2f ms, max %.2f ms\n",
                 sc.bytes / 1e6, cpu.p50, cpu.max);
     std::printf("  %-26s %6s %4s  %-21s  %-21s  %-21s  %-21s  %-21s  %7s\n", "phase", "calls", "fail", "wait",
                 "probe queued", "io thread queued", "daemon queued (all)", "daemon's part", "lower");

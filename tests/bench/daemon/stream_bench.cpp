@@ -1,14 +1,14 @@
 // The streaming benchmark (issue 6): sculptd on the 50k-vertex scene, the
-// benchmark session sculpting it, viewers at 60 fps with tolerance 0.1 mm.
+// benchmark recording sculpting it, viewers at 60 fps with tolerance 0.1 mm.
 // One daemon run alternates windows of 0, 1, 8 and 16 viewers while the
-// session plays; per viewer count it prints bytes/s per viewer and the
+// recording plays; per viewer count it prints bytes/s per viewer and the
 // tick → receipt latency (publishedNs is CLOCK_MONOTONIC on the same host),
 // p50/p99 over every frame with changes; and the sim loop's jitter p99 in
 // the 16-viewer windows divided by the jitter p99 in the 0-viewer windows,
 // both from the loop's own histogram diffed over each window
 // (Stats.jitterHistogram). Numbers only: it fails only if something breaks.
 //
-//   stream_bench SCENE SESSION [--window S] [--rounds N] [--fps F] [--tolerance M] [--realtime 0|1]
+//   stream_bench SCENE RECORDING [--window S] [--rounds N] [--fps F] [--tolerance M] [--realtime 0|1]
 // --realtime 1 runs sculptd --realtime (SCHED_FIFO when permitted), as a
 // deployment would: the viewers here share the machine's cores with it.
 #include <algorithm>
@@ -55,7 +55,7 @@ double percentile(std::vector<std::int64_t>& v, double q) {
 int main(int argc, char** argv) {
   // sculptd is the one this build made (SCULPTD_BIN).
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s SCENE SESSION [--window S] [--rounds N] [--fps F] [--tolerance M]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s SCENE RECORDING [--window S] [--rounds N] [--fps F] [--tolerance M]\n", argv[0]);
     return 2;
   }
   double window_s = 1.5, fps = 60, tolerance = 1e-4, settle_s = 0.3;
@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "viewer failed: %s\n", v->seen().error_text.c_str());
           return 1;
         }
-      // Snapshots and connection set-up are not what is measured.
+      // Keyframes and connection set-up are not what is measured.
       std::this_thread::sleep_for(settle);
       std::vector<std::uint64_t> bytes0;
       for (auto& v : viewers) {
@@ -123,8 +123,8 @@ int main(int argc, char** argv) {
       if (std::getenv("STREAM_BENCH_DEBUG"))
         for (auto& v : viewers) {
           const auto s = v->seen();
-          std::fprintf(stderr, "n=%d snapshots %llu frames %llu keepalives %llu seq %llu err %s\n", n,
-                       (unsigned long long)s.snapshots, (unsigned long long)s.frames, (unsigned long long)s.keepalives,
+          std::fprintf(stderr, "n=%d keyframes %llu frames %llu keepalives %llu seq %llu err %s\n", n,
+                       (unsigned long long)s.keyframes, (unsigned long long)s.frames, (unsigned long long)s.keepalives,
                        (unsigned long long)s.sequence, s.error_text.c_str());
         }
       for (std::size_t i = 0; i < viewers.size(); ++i) {

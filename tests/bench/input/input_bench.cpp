@@ -1,13 +1,13 @@
 // What the input path costs: the sim thread's per-frame ControlMapper work,
-// and reading a shipped session (the io thread's ReplaySource). Numbers only.
+// and reading a shipped recording (the io thread's ReplaySource). Numbers only.
 #include <benchmark/benchmark.h>
 
 #include <linux/input.h>
 
 #include "input/control_mapper.hpp"
 #include "input/mapping.hpp"
+#include "input/recording.hpp"
 #include "input/replay_source.hpp"
-#include "input/session.hpp"
 
 namespace sculpt::input {
 namespace {
@@ -52,9 +52,9 @@ void BM_Normalize(benchmark::State& state) {
 }
 BENCHMARK(BM_Normalize);
 
-// Reading a whole shipped session through ReplaySource, per frame.
-void BM_ReplaySourceSession(benchmark::State& state) {
-  const std::string file = std::string(SCULPT_SESSIONS_DIR) + "/bench_sculpt.jsonl";
+// Reading a whole shipped recording through ReplaySource, per frame.
+void BM_ReplaySourceRecording(benchmark::State& state) {
+  const std::string file = std::string(SCULPT_RECORDINGS_DIR) + "/bench_sculpt.jsonl";
   std::size_t frames = 0;
   for (auto _ : state) {
     ReplaySource src(file, 1000.0, {});
@@ -66,7 +66,7 @@ void BM_ReplaySourceSession(benchmark::State& state) {
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(frames));
 }
-BENCHMARK(BM_ReplaySourceSession)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ReplaySourceRecording)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace sculpt::input

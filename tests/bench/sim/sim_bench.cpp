@@ -191,7 +191,7 @@ void BM_StepIdle(benchmark::State& state) {
 }
 BENCHMARK(BM_StepIdle)->Unit(benchmark::kNanosecond);
 
-// Keeps the images of body 0's edits (the latest edit's, once it closes).
+// Keeps the images of body 0's strokes (the latest stroke's, once it closes).
 class KeepImages : public StrokeSink {
  public:
   void opened(std::uint32_t, std::uint64_t) override { blocks.clear(), images.clear(), open = true; }
@@ -199,16 +199,16 @@ class KeepImages : public StrokeSink {
     blocks.push_back(block);
     images.emplace_back(image.begin(), image.end());
   }
-  void closed(std::uint32_t, const StrokeSummary& e) override { open = false, edit = e; }
+  void closed(std::uint32_t, const StrokeSummary& e) override { open = false, stroke = e; }
   std::vector<std::uint32_t> blocks;
   std::vector<std::vector<std::byte>> images;
-  StrokeSummary edit;
+  StrokeSummary stroke;
   bool open = false;
 };
 
 // A recorded stroke on the 164k sphere: a tool presses 30 mm in over 200
 // ticks, holds 100, leaves, and the sphere settles for 200 more (then the
-// edit is closed, as the daemon does before an undo). Built once per
+// stroke is closed, as the daemon does before an undo). Built once per
 // material: the stroke takes a while, and every repetition swaps the same.
 struct RecordedStroke {
   World<float> world{SimSettings{}, 1};

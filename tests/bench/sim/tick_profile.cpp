@@ -1,4 +1,4 @@
-// Where sculptd's long ticks come from: the acceptance scene and session run
+// Where sculptd's long ticks come from: the acceptance scene and recording run
 // through the daemon's own stages (replay → ControlMapper → ToolDriver →
 // World::step), tick after tick on this thread with no sleeping, and every
 // tick's step time, collision time, awake vertices, substeps, narrow-phase
@@ -6,7 +6,7 @@
 // slowest ticks with what they were doing; --csv FILE writes every tick.
 //
 //   tick_profile --scene tests/data/scenes/sculpt_50k.toml
-//                --session tests/data/sessions/bench_sculpt.jsonl [--ticks 30000] [--csv FILE]
+//                --recording tests/data/recordings/bench_sculpt.jsonl [--ticks 30000] [--csv FILE]
 //
 // Numbers only: it asserts nothing about time.
 #include <sys/resource.h>
@@ -105,12 +105,12 @@ bool parse_count(const char* option, const char* text, std::uint64_t& out) {
 }
 
 int usage() {
-  std::fprintf(stderr, "usage: tick_profile --scene FILE --session FILE [--ticks N] [--csv FILE] [--top N] [--blocks-at TICK]\n");
+  std::fprintf(stderr, "usage: tick_profile --scene FILE --recording FILE [--ticks N] [--csv FILE] [--top N] [--blocks-at TICK]\n");
   return 2;
 }
 
 int run(int argc, char** argv) {
-  std::string scene_file, session_file, csv;
+  std::string scene_file, recording_file, csv;
   std::uint64_t ticks = 30000;
   std::uint64_t top = 15;
   std::uint64_t blocks_at = 0;
@@ -118,14 +118,14 @@ int run(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return usage();
     if (a == "--scene") scene_file = argv[++i];
-    else if (a == "--session") session_file = argv[++i];
+    else if (a == "--recording") recording_file = argv[++i];
     else if (a == "--csv") csv = argv[++i];
     else if (a == "--ticks" || a == "--top" || a == "--blocks-at") {
       std::uint64_t& v = a == "--ticks" ? ticks : a == "--top" ? top : blocks_at;
       if (!parse_count(a.c_str(), argv[++i], v)) return 2;
     } else return usage();
   }
-  if (scene_file.empty() || session_file.empty()) return usage();
+  if (scene_file.empty() || recording_file.empty()) return usage();
 
   const scene::Scene sc = scene::load_scene(scene_file);
   const double rate = sc.settings.rate_hz;
@@ -140,7 +140,7 @@ int run(int argc, char** argv) {
   input::ControlMapper mapper(driver.size());
   input::ToolRouter router(simloop::tool_routes(sc));
   const input::MappingConfig mapping = input::parse_mapping(toml::table{});
-  input::ReplaySource replay(session_file, rate, [&](std::uint8_t slot, const input::DeviceInfo& info) {
+  input::ReplaySource replay(recording_file, rate, [&](std::uint8_t slot, const input::DeviceInfo& info) {
     router.detach(slot);
     return router.attach(slot, info, mapping);
   });
@@ -170,7 +170,7 @@ int run(int argc, char** argv) {
   std::vector<double> step, cpu, coll, awake;
   for (const auto& r : rec)
     step.push_back(r.step_us), cpu.push_back(r.cpu_us), coll.push_back(r.collision_us), awake.push_back(r.awake);
-  std::printf("# %s, %s: %llu ticks; substeps per body:", scene_file.c_str(), session_file.c_str(),
+  std::printf("# %s, %s: %llu ticks; substeps per body:", scene_file.c_str(), recording_file.c_str(),
               static_cast<unsigned long long>(ticks));
   for (std::size_t b = 0; b < world.body_count(); ++b) std::printf(" %d (%u vertices)", substeps[b], world.body(b).n);
   std::printf("\nstep us      p50 %.1f p90 %.1f p99 %.1f p99.9 %.1f max %.1f\n", pct(step, 0.5), pct(step, 0.9),
@@ -216,7 +216,7 @@ int run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return run(argc, argv);
-  } catch (const std::exception& e) {  // a bad scene or session file: its name and what is wrong
+  } catch (const std::exception& e) {  // a bad scene or recording: its name and what is wrong
     std::fprintf(stderr, "tick_profile: %s\n", e.what());
     return 1;
   }

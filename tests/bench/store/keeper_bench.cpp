@@ -1,11 +1,11 @@
 // The keeper on a 164k-vertex ball (the acceptance scene's layout with the
-// ball at 163 842 vertices): a recorded session sculpted tick by tick as the
+// ball at 163 842 vertices): a recording sculpted tick by tick as the
 // sim thread runs it, the keeper beside it. Prints what issue 21 asks for:
 // journal bytes per second while sculpting, snapshot size and time, undo
 // time on the sim thread (the input stage of the tick that writes the
 // images) and end to end (request to written), recovery time.
 //
-//   keeper_bench SESSION [--material clay|rubber] [--ticks N] [--undos N]
+//   keeper_bench RECORDING [--material clay|rubber] [--ticks N] [--undos N]
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -69,7 +69,7 @@ double median(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s SESSION [--material clay|rubber] [--ticks N] [--undos N]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s RECORDING [--material clay|rubber] [--ticks N] [--undos N]\n", argv[0]);
     return 2;
   }
   std::string material = "clay";
@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
           rig.tick();
           worst_input = std::max(worst_input, rig.input_ns());
         }
-        const sd::EditResult r = p.wait(ws);
+        const sd::HistoryMoveResult r = p.wait(ws);
         if (!r.error.empty()) {
           std::fprintf(stderr, "%s: %s\n", undo ? "undo" : "redo", r.error.c_str());
           break;
@@ -145,11 +145,11 @@ int main(int argc, char** argv) {
     recover_s = std::chrono::duration<double>(Clock::now() - began).count();
     if (!rec || rec->hash != rig.sim().world->hash()) std::fprintf(stderr, "recovery is not exact!\n");
   }
-  const double session_s = static_cast<double>(ticks) / 1000.0;
+  const double recording_s = static_cast<double>(ticks) / 1000.0;
   std::printf("keeper_bench: 163842-vertex %s ball, %llu ticks of %s (sculpted in %.1f s)\n", material.c_str(),
               static_cast<unsigned long long>(ticks), fs::path(argv[1]).filename().c_str(), sculpt_s);
   std::printf("  journal: %llu bytes, %.0f bytes per second of sculpting\n",
-              static_cast<unsigned long long>(journal_bytes), static_cast<double>(journal_bytes) / session_s);
+              static_cast<unsigned long long>(journal_bytes), static_cast<double>(journal_bytes) / recording_s);
   std::printf("  snapshot (at exit): %llu bytes of state, %llu stored (with its new strokes), %.0f ms; store file %llu "
               "bytes\n",
               static_cast<unsigned long long>(state_bytes), static_cast<unsigned long long>(stored_bytes), snapshot_ms,

@@ -46,7 +46,7 @@ void put(std::vector<std::byte>& out, const std::vector<T>& v) {
   out.insert(out.end(), p, p + v.size() * sizeof(T));
 }
 
-// What a sculpt's state looks like mid-session: a dented sphere, a tenth
+// What a sculpt's state looks like mid-recording: a dented sphere, a tenth
 // of the vertices moving near the tool (the rest asleep at exactly zero).
 std::vector<std::byte> sculpt_state(std::size_t vertices) {
   std::mt19937 gen(42);
@@ -143,7 +143,7 @@ double raw_commit_ms(const fs::path& dir, const std::vector<std::byte>& state, i
 }
 
 // 1 kHz of 64-byte input records, committed every 100 ms: `seconds` of a
-// session as fast as the disk takes them.
+// recording as fast as the disk takes them.
 void journal(const fs::path& dir, int seconds) {
   Store s = Store::open(dir);
   std::vector<std::byte> bytes(64, std::byte{0x5a});

@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
 """The real-time loop with the store on and off, side by side (issue 21).
 
-Runs sculptd on a scene replaying a session, alternating --no-store and
+Runs sculptd on a scene replaying a recording, alternating --no-store and
 --state-dir (a fresh directory each round), and prints per run and the
 medians of: the wake-up jitter p50/p99/max, overruns, and with the store the
 keeper's journal bytes and commits (from its exit line). Numbers, no verdict.
 
-  store_jitter.py SCULPTD SCENE SESSION [--rounds 4] [--seconds 20] [--realtime]
+  store_jitter.py SCULPTD SCENE RECORDING [--rounds 4] [--seconds 20] [--realtime]
 """
 import argparse
 import json
@@ -18,9 +18,9 @@ import subprocess
 import tempfile
 
 
-def run(sculptd, scene, session, seconds, store_dir, realtime, tmp, name):
+def run(sculptd, scene, recording, seconds, store_dir, realtime, tmp, name):
     stats = os.path.join(tmp, name + ".json")
-    args = [sculptd, "--scene", scene, "--input", "replay:" + session, "--duration", str(seconds),
+    args = [sculptd, "--scene", scene, "--input", "replay:" + recording, "--duration", str(seconds),
             "--stats-json", stats, "--socket", os.path.join(tmp, name + ".sock")]
     args += ["--state-dir", store_dir] if store_dir else ["--no-store"]
     if realtime:
@@ -44,7 +44,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("sculptd")
     ap.add_argument("scene")
-    ap.add_argument("session")
+    ap.add_argument("recording")
     ap.add_argument("--rounds", type=int, default=4)
     ap.add_argument("--seconds", type=float, default=20)
     ap.add_argument("--realtime", action="store_true")
@@ -55,7 +55,7 @@ def main():
         for r in range(a.rounds):
             for mode in ("off", "on"):
                 store = os.path.join(tmp, f"state-{r}") if mode == "on" else None
-                res = run(a.sculptd, a.scene, a.session, a.seconds, store, a.realtime, tmp, f"{mode}-{r}")
+                res = run(a.sculptd, a.scene, a.recording, a.seconds, store, a.realtime, tmp, f"{mode}-{r}")
                 results[mode].append(res)
                 print(f"round {r} store {mode}: " + ", ".join(f"{k} {v}" for k, v in res.items()), flush=True)
     finally:

@@ -108,7 +108,7 @@ std::vector<std::uint32_t> dent_indices(const ViewMesh& mesh, std::size_t count)
   return idx;
 }
 
-void fill_snapshot(proto::Snapshot::Builder s, const ViewMesh& mesh) {
+void fill_keyframe(proto::Keyframe::Builder s, const ViewMesh& mesh) {
   auto m = s.initMeshes(1)[0];
   m.setId(mesh.id());
   m.setName(mesh.name());
@@ -129,10 +129,10 @@ void BM_ApplyDelta10kVertices(benchmark::State& state) {
   ViewMesh& mesh = w.model.meshes[0];
   const std::vector<std::uint32_t> idx = dent_indices(mesh, 10000);
 
-  capnp::MallocMessageBuilder snap_msg;
-  fill_snapshot(snap_msg.initRoot<proto::Snapshot>(), mesh);
+  capnp::MallocMessageBuilder keyframe_msg;
+  fill_keyframe(keyframe_msg.initRoot<proto::Keyframe>(), mesh);
   client::MeshMirror mirror;
-  mirror.apply(snap_msg.getRoot<proto::Snapshot>().asReader());
+  mirror.apply(keyframe_msg.getRoot<proto::Keyframe>().asReader());
 
   // Two frames, alternating, so every apply really moves the vertices.
   capnp::MallocMessageBuilder frames[2];

@@ -1,5 +1,5 @@
 // DeviceClock places live frames on the ticks their device time says, as
-// ReplaySource does for a recorded session.
+// ReplaySource does for a recording.
 #include <gtest/gtest.h>
 
 #include "input/device_clock.hpp"

@@ -1,10 +1,10 @@
-// The recording format (recorded input files, input/session.hpp): round
+// The recording format (recorded input files, input/recording.hpp): round
 // trips, and errors that name file, line and field.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
-#include "input/session.hpp"
+#include "input/recording.hpp"
 #include "test_devices.hpp"
 
 namespace sculpt::input {
@@ -12,8 +12,8 @@ namespace {
 
 using testing::write_file;
 
-Session sample() {
-  Session s;
+Recording sample() {
+  Recording s;
   s.header.description = "two devices, a few moves";
   s.header.devices = {testing::gamepad(), testing::flight_stick()};
   s.header.devices[1].has_msc_timestamp = true;
@@ -29,8 +29,8 @@ Session sample() {
 std::string error_of(const std::string& name, const std::string& text) {
   const auto p = write_file(name, text);
   try {
-    read_session(p);
-  } catch (const SessionError& e) {
+    read_recording(p);
+  } catch (const RecordingError& e) {
     return e.what();
   }
   return "(no error)";
@@ -40,10 +40,10 @@ const std::string kHeader =
     R"({"format":"sculpt-session","version":1,"devices":[{"name":"pad","vendor":1,"product":2,"axes":[{"code":"ABS_X","min":-10,"max":10},{"code":1,"min":-10,"max":10}],"buttons":["BTN_SOUTH"]}]})";
 
 TEST(Recording, RoundTrip) {
-  const Session s = sample();
+  const Recording s = sample();
   const auto p = testing::temp_file("roundtrip.jsonl");
-  write_session(p, s);
-  const Session r = read_session(p);
+  write_recording(p, s);
+  const Recording r = read_recording(p);
   EXPECT_EQ(r.header.description, s.header.description);
   ASSERT_EQ(r.header.devices.size(), 2u);
   for (std::size_t i = 0; i < 2; ++i) {
@@ -64,7 +64,7 @@ TEST(Recording, HeaderNamesCodesReadably) {
 
 TEST(Recording, MinimalHeaderAndBlankLinesAreFine) {
   const auto p = write_file("minimal.jsonl", kHeader + "\n[0,0,[[3,0,5]]]\n\n[10,0,[]]\n");
-  const Session s = read_session(p);
+  const Recording s = read_recording(p);
   ASSERT_EQ(s.frames.size(), 2u);
   EXPECT_EQ(s.header.devices[0].kind, DeviceKind::gamepad) << "classified from its capabilities";
   EXPECT_EQ(s.frames[0].events[0], (InputEvent{EV_ABS, ABS_X, 5}));
@@ -73,7 +73,7 @@ TEST(Recording, MinimalHeaderAndBlankLinesAreFine) {
 TEST(Recording, Errors) {
   EXPECT_NE(error_of("e1", "").find("e1:1: empty file"), std::string::npos);
   EXPECT_NE(error_of("e2", "not json\n").find("e2:1: the header is not valid JSON"), std::string::npos);
-  EXPECT_NE(error_of("e3", R"({"format":"other","version":1,"devices":[]})").find("not a session file"),
+  EXPECT_NE(error_of("e3", R"({"format":"other","version":1,"devices":[]})").find("not a recording"),
             std::string::npos);
   EXPECT_NE(error_of("e4", R"({"format":"sculpt-session","version":7,"devices":[]})").find("version 7 is not supported"),
             std::string::npos);
@@ -110,19 +110,19 @@ TEST(Recording, Errors) {
             std::string::npos);
 }
 
-TEST(Recording, ShippedSessionsRead) {
+TEST(Recording, ShippedRecordingsRead) {
   std::size_t n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(SCULPT_SESSIONS_DIR)) {
+  for (const auto& e : std::filesystem::directory_iterator(SCULPT_RECORDINGS_DIR)) {
     if (e.path().extension() != ".jsonl") continue;
     ++n;
-    const Session s = read_session(e.path());
+    const Recording s = read_recording(e.path());
     EXPECT_EQ(s.header.devices.size(), 1u) << e.path();
     EXPECT_EQ(s.header.devices[0].kind, DeviceKind::gamepad) << e.path();
     EXPECT_FALSE(s.header.description.empty()) << e.path();
     ASSERT_GT(s.frames.size(), 1000u) << e.path();
-    EXPECT_GE(s.frames.back().t_us, 5'000'000) << e.path() << ": sessions are 5 s or longer";
+    EXPECT_GE(s.frames.back().t_us, 5'000'000) << e.path() << ": recordings are 5 s or longer";
   }
-  EXPECT_GE(n, 3u) << "push, pull and two_hands at least, in " << SCULPT_SESSIONS_DIR;
+  EXPECT_GE(n, 3u) << "push, pull and two_hands at least, in " << SCULPT_RECORDINGS_DIR;
 }
 
 TEST(Recording, FastAndFullParsersAgree) {
@@ -132,9 +132,9 @@ TEST(Recording, FastAndFullParsersAgree) {
                                  "[7,0,[[3,0,1]],]", "[7,0,[[3,0,1.5]]]", "[1e3,0,[]]"}) {
     std::string fast_or_error, json_or_error;
     try {
-      const SessionFrame f = frame_from_json(line, "x", 1);
+      const RecordingFrame f = frame_from_json(line, "x", 1);
       fast_or_error = frame_to_json(f);
-    } catch (const SessionError& e) {
+    } catch (const RecordingError& e) {
       fast_or_error = std::string("error: ") + e.what();
     }
     EXPECT_FALSE(fast_or_error.empty()) << line;
@@ -150,26 +150,26 @@ TEST(Recording, FastAndFullParsersAgree) {
 
 TEST(Recording, MissingFileNamesIt) {
   try {
-    SessionReader r("/nonexistent/session.jsonl");
+    RecordingReader r("/nonexistent/recording.jsonl");
     FAIL();
-  } catch (const SessionError& e) {
-    EXPECT_NE(std::string(e.what()).find("/nonexistent/session.jsonl"), std::string::npos);
+  } catch (const RecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/recording.jsonl"), std::string::npos);
   }
 }
 
 TEST(Recording, WriterKeepsTimeMonotonic) {
   const auto p = testing::temp_file("mono.jsonl");
-  SessionHeader h;
+  RecordingHeader h;
   h.devices = {testing::gamepad()};
-  SessionWriter w(p, h);
+  RecordingWriter w(p, h);
   const InputEvent e{EV_ABS, ABS_X, 1};
   w.write(100, 0, &e, 1);
   w.write(90, 0, &e, 1);  // a clock step backwards is clamped, not written
   w.close();
-  const Session s = read_session(p);
+  const Recording s = read_recording(p);
   ASSERT_EQ(s.frames.size(), 2u);
   EXPECT_EQ(s.frames[1].t_us, 100);
-  EXPECT_THROW(SessionWriter(p, SessionHeader{}), SessionError);
+  EXPECT_THROW(RecordingWriter(p, RecordingHeader{}), RecordingError);
 }
 
 }  // namespace

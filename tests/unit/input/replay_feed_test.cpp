@@ -1,4 +1,4 @@
-// ReplayFeed reads a session on its own thread and hands over exactly what
+// ReplayFeed reads a recording on its own thread and hands over exactly what
 // ReplaySource gives, in order; a bad line later in the file is an error
 // after everything before it, never a lost or reordered frame.
 #include <fstream>
@@ -13,13 +13,13 @@
 namespace sculpt::input {
 namespace {
 
-std::filesystem::path long_session(const std::string& name, int frames) {
-  Session s;
+std::filesystem::path long_recording(const std::string& name, int frames) {
+  Recording s;
   s.header.devices = {testing::gamepad(), testing::flight_stick()};
   for (int i = 0; i < frames; ++i)
     s.frames.push_back({i * 700, static_cast<std::uint32_t>(i % 2), {{EV_ABS, ABS_X, i}, {EV_ABS, ABS_Y, -i}}});
   const auto p = testing::temp_file(name);
-  write_session(p, s);
+  write_recording(p, s);
   return p;
 }
 
@@ -66,7 +66,7 @@ ReplaySource after_attaches(const std::filesystem::path& file) {
 }
 
 TEST(ReplayFeed, HandsOverExactlyWhatTheSourceGivesInOrder) {
-  const auto file = long_session("feed_long.jsonl", 20000);
+  const auto file = long_recording("feed_long.jsonl", 20000);
   ReplayFeed feed(after_attaches(file), 64);
   EXPECT_EQ(feed.header().devices.size(), 2u);
   expect_same(drain(feed, 16), direct(file));
@@ -74,7 +74,7 @@ TEST(ReplayFeed, HandsOverExactlyWhatTheSourceGivesInOrder) {
 }
 
 TEST(ReplayFeed, TheFirstMessagesAreReadBeforeItReturns) {
-  const auto file = long_session("feed_first.jsonl", 1000);
+  const auto file = long_recording("feed_first.jsonl", 1000);
   ReplayFeed feed(after_attaches(file), 256);
   concurrency::SpscRing<InputMessage> ring(512);
   // No waiting: the constructor read them.
@@ -82,7 +82,7 @@ TEST(ReplayFeed, TheFirstMessagesAreReadBeforeItReturns) {
 }
 
 TEST(ReplayFeed, PumpLeavesTheSlotsItIsAskedToKeepFree) {
-  const auto file = long_session("feed_keep_free.jsonl", 1000);
+  const auto file = long_recording("feed_keep_free.jsonl", 1000);
   ReplayFeed feed(after_attaches(file), 256);
   concurrency::SpscRing<InputMessage> ring(64);
   EXPECT_EQ(feed.pump(ring, 8), 56u);
@@ -91,8 +91,8 @@ TEST(ReplayFeed, PumpLeavesTheSlotsItIsAskedToKeepFree) {
   for (int i = 0; i < 8; ++i) EXPECT_TRUE(ring.try_push(InputMessage::detach(0))) << "the kept slots are there";
 }
 
-TEST(ReplayFeed, AShortSessionIsFinishedWithoutAThread) {
-  const auto file = long_session("feed_short.jsonl", 10);
+TEST(ReplayFeed, AShortRecordingIsFinishedWithoutAThread) {
+  const auto file = long_recording("feed_short.jsonl", 10);
   ReplayFeed feed(after_attaches(file), 64);
   concurrency::SpscRing<InputMessage> ring(64);
   EXPECT_EQ(feed.pump(ring), 10u);
@@ -100,7 +100,7 @@ TEST(ReplayFeed, AShortSessionIsFinishedWithoutAThread) {
 }
 
 TEST(ReplayFeed, ABadLineLaterIsAnErrorAfterEverythingBeforeIt) {
-  const auto file = long_session("feed_bad.jsonl", 5000);
+  const auto file = long_recording("feed_bad.jsonl", 5000);
   const std::vector<InputMessage> good = direct(file);
   {
     std::ofstream out(file, std::ios::app);
@@ -114,7 +114,7 @@ TEST(ReplayFeed, ABadLineLaterIsAnErrorAfterEverythingBeforeIt) {
 }
 
 TEST(ReplayFeed, StopsWhileItsReaderWaitsOnAFullRing) {
-  const auto file = long_session("feed_stop.jsonl", 20000);
+  const auto file = long_recording("feed_stop.jsonl", 20000);
   ReplayFeed feed(after_attaches(file), 8);
   concurrency::SpscRing<InputMessage> ring(4);
   feed.pump(ring);

@@ -10,8 +10,8 @@
 namespace sculpt::input {
 namespace {
 
-std::filesystem::path two_device_session() {
-  Session s;
+std::filesystem::path two_device_recording() {
+  Recording s;
   s.header.devices = {testing::gamepad(), testing::flight_stick()};
   s.frames = {
       {0, 0, {{EV_ABS, ABS_X, 32767}}},
@@ -21,7 +21,7 @@ std::filesystem::path two_device_session() {
       {2000000, 1, {{EV_KEY, BTN_TRIGGER, 0}}},  // 2 s: +2000
   };
   const auto p = testing::temp_file("replay.jsonl");
-  write_session(p, s);
+  write_recording(p, s);
   return p;
 }
 
@@ -32,7 +32,7 @@ ReplaySource::Binder router_binder(ToolRouter& router, const MappingConfig& cfg)
 TEST(ReplaySource, AttachesThenFramesOnTheirTicks) {
   ToolRouter router({{0, "", Stick::left}, {1, "", Stick::main}});
   MappingConfig cfg;
-  ReplaySource src(two_device_session(), 1000.0, router_binder(router, cfg));
+  ReplaySource src(two_device_recording(), 1000.0, router_binder(router, cfg));
   src.start(100);
   std::vector<InputMessage> out;
   while (auto m = src.next()) out.push_back(*m);
@@ -56,16 +56,16 @@ TEST(ReplaySource, AttachesThenFramesOnTheirTicks) {
 }
 
 TEST(ReplaySource, OtherRates) {
-  ReplaySource src(two_device_session(), 500.0, {});
+  ReplaySource src(two_device_recording(), 500.0, {});
   src.start(1);
   EXPECT_EQ(src.tick_of(0), 1u);
   EXPECT_EQ(src.tick_of(999), 1u);    // 0.4995 ticks
   EXPECT_EQ(src.tick_of(1000), 2u);   // 0.5 rounds up
   EXPECT_EQ(src.tick_of(2000000), 1001u);
-  ReplaySource frac(two_device_session(), 333.5, {});
+  ReplaySource frac(two_device_recording(), 333.5, {});
   frac.start(10);
   EXPECT_EQ(frac.tick_of(3000000), 10u + 1001u);  // 1000.5 → 1001
-  EXPECT_THROW(ReplaySource(two_device_session(), 0.0, {}), SessionError);
+  EXPECT_THROW(ReplaySource(two_device_recording(), 0.0, {}), RecordingError);
   // The free function gives the same ticks (for device-clock scheduling).
   EXPECT_EQ(replay_tick(1, 1000, 500.0), 2u);
   EXPECT_EQ(replay_tick(5, 1499, 1000.0), 6u);
@@ -74,13 +74,13 @@ TEST(ReplaySource, OtherRates) {
 }
 
 TEST(ReplaySource, LongReportsAreSplitOnOneTick) {
-  Session s;
+  Recording s;
   s.header.devices = {testing::gamepad()};
-  SessionFrame f{3000, 0, {}};
+  RecordingFrame f{3000, 0, {}};
   for (int i = 0; i < 100; ++i) f.events.push_back({EV_ABS, ABS_X, i});
   s.frames = {f};
   const auto p = testing::temp_file("long.jsonl");
-  write_session(p, s);
+  write_recording(p, s);
   ReplaySource src(p, 1000.0, {});
   src.start(1);
   ASSERT_EQ(src.next()->kind, MessageKind::attach);
@@ -96,7 +96,7 @@ TEST(ReplaySource, LongReportsAreSplitOnOneTick) {
 }
 
 TEST(ReplaySource, PumpFillsTheRingAndRespectsTheHorizon) {
-  ReplaySource src(two_device_session(), 1000.0, {});
+  ReplaySource src(two_device_recording(), 1000.0, {});
   src.start(1);
   concurrency::SpscRing<InputMessage> ring(4);
   EXPECT_EQ(src.pump(ring), 4u);  // full
@@ -116,7 +116,7 @@ TEST(ControlMapper, DrainAppliesOnlyWhatIsDue) {
   ToolRouter router({{0, "", Stick::left}, {1, "", Stick::main}});
   MappingConfig cfg;
   cfg.dead_zone = 0.0f;
-  ReplaySource src(two_device_session(), 1000.0, router_binder(router, cfg));
+  ReplaySource src(two_device_recording(), 1000.0, router_binder(router, cfg));
   src.start(100);
   concurrency::SpscRing<InputMessage> ring(64);
   src.pump(ring);

@@ -105,7 +105,7 @@ TEST(History, ImagesAndVerticesAddUp) {
   EXPECT_EQ(s.images.size(), 3 * kImage);
   EXPECT_EQ(s.image_bytes, kImage);
   EXPECT_EQ(s.vertices, 48u);
-  EXPECT_EQ(s.edit.release_tick, 20u);
+  EXPECT_EQ(s.summary.release_tick, 20u);
 }
 
 }  // namespace

@@ -53,10 +53,10 @@ TEST(JournalCodec, EveryKindComesBack) {
             input::MessageKind::detach);
   EXPECT_EQ(round_trip({JournalEntry::Kind::pause, false, 5, 0, 0, {}}).kind, JournalEntry::Kind::pause);
   EXPECT_EQ(round_trip({JournalEntry::Kind::resume, false, 5, 0, 0, {}}).kind, JournalEntry::Kind::resume);
-  const JournalEntry edit = round_trip({JournalEntry::Kind::edit, true, 8, 42, 0, {}});
-  EXPECT_TRUE(edit.refused);
-  EXPECT_EQ(edit.edit, 42u);
-  EXPECT_EQ(round_trip({JournalEntry::Kind::scene, false, 9, 3, 0, {}}).edit, 3u);
+  const JournalEntry move = round_trip({JournalEntry::Kind::history_move, true, 8, 42, 0, {}});
+  EXPECT_TRUE(move.refused);
+  EXPECT_EQ(move.number, 42u);
+  EXPECT_EQ(round_trip({JournalEntry::Kind::scene, false, 9, 3, 0, {}}).number, 3u);
   const JournalEntry mark = round_trip({JournalEntry::Kind::reached, false, 10, 0, 1764037702371000000, {}});
   EXPECT_EQ(mark.kind, JournalEntry::Kind::reached);
   EXPECT_EQ(mark.wall_ns, 1764037702371000000);

@@ -36,10 +36,10 @@ KeeperSettings settings(const fs::path& dir) {
 
 // Rig + keeper, wired as sculptd wires them.
 struct Sculpt {
-  explicit Sculpt(const fs::path& dir, const std::string& session = "push.jsonl")
-      : Sculpt(dir, session, settings(dir)) {}
-  Sculpt(const fs::path&, const std::string& session, const KeeperSettings& ks)
-      : rig(&tap, testing::session_path(session)), keeper(ks, tap) {
+  explicit Sculpt(const fs::path& dir, const std::string& recording = "push.jsonl")
+      : Sculpt(dir, recording, settings(dir)) {}
+  Sculpt(const fs::path&, const std::string& recording, const KeeperSettings& ks)
+      : rig(&tap, testing::recording_path(recording)), keeper(ks, tap) {
     keeper.start_anew();
     keeper.scene_started(rig.bundle(),
                          std::make_shared<const scene::Scene>(rig.sim().scene), 0);
@@ -52,7 +52,7 @@ struct Sculpt {
 };
 
 // Ticks the rig until the promise is fulfilled (the keeper needs the sim
-// thread's ticks to apply an edit).
+// thread's ticks to apply a history move).
 template <class T>
 T tick_until(kj::Promise<T>& p, kj::WaitScope& ws, Rig& rig) {
   for (int i = 0; i < 200000 && !p.poll(ws); ++i) {
@@ -64,11 +64,11 @@ T tick_until(kj::Promise<T>& p, kj::WaitScope& ws, Rig& rig) {
 
 TEST(Replica, EndsWithTheSimThreadsBits) {
   JournalTap tap;
-  Rig rig(&tap, testing::session_path("two_hands.jsonl"));
+  Rig rig(&tap, testing::recording_path("two_hands.jsonl"));
   rig.start_at(0);
   History history(std::uint64_t{1} << 30);
   Replica replica(rig.bundle(), load_bundle(*rig.bundle()), 1, 0, history);
-  for (int round = 0; round < (short_run() ? 10 : 40) && !rig.session_done(); ++round) {
+  for (int round = 0; round < (short_run() ? 10 : 40) && !rig.recording_done(); ++round) {
     rig.run(400);
     while (auto e = tap.entries().try_pop()) ASSERT_EQ(replica.apply(*e), "");
     replica.advance_to(rig.next_tick());
@@ -76,7 +76,7 @@ TEST(Replica, EndsWithTheSimThreadsBits) {
   }
   EXPECT_EQ(replica.world().state(), rig.sim().world->state());
   if (!short_run()) {
-    EXPECT_FALSE(history.strokes().empty()) << "the session's presses make strokes";
+    EXPECT_FALSE(history.strokes().empty()) << "the recording's presses make strokes";
   }
 }
 
@@ -86,7 +86,7 @@ TEST(Keeper, RecoversTheSculptExactlyAfterAStop) {
   std::size_t strokes = 0;
   {
     Sculpt s(dir);
-    while (!s.rig.session_done()) s.rig.run(100);
+    while (!s.rig.recording_done()) s.rig.run(100);
     s.rig.run(500);
     s.rig.pause(true);
     s.keeper.stop();
@@ -109,7 +109,7 @@ TEST(Keeper, RecoversTheSculptExactlyAfterAStop) {
 TEST(Keeper, HistoryIsAskedForAPageAndSaysWhatIsOnEitherSide) {
   const fs::path dir = testing::fresh_dir("history-page");
   Sculpt s(dir, "two_hands.jsonl");
-  while (!s.rig.session_done()) s.rig.run(100);
+  while (!s.rig.recording_done()) s.rig.run(100);
   s.rig.run(3000);
   s.keeper.stop();
   const HistoryInfo all = s.keeper.history();
@@ -220,17 +220,17 @@ TEST(Keeper, AReplayStoppedShortKeepsTheStoreAndGoesOnFromWhatItRecovered) {
 TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   const fs::path dir = testing::fresh_dir("undo");
   Sculpt s(dir);
-  Rig never(nullptr, testing::session_path("push.jsonl"));  // the same session, never undone
+  Rig never(nullptr, testing::recording_path("push.jsonl"));  // the same recording, never undone
   never.start_at(0);
   kj::EventLoop loop;
   kj::WaitScope ws(loop);
   const std::uint64_t untouched = s.rig.sim().world->hash();
-  while (!s.rig.session_done()) s.rig.run(100);
+  while (!s.rig.recording_done()) s.rig.run(100);
   s.rig.run(3000);  // the ball comes to rest; the tool has let go
   const std::uint64_t sculpted = s.rig.sim().world->hash();
 
   auto undo = s.keeper.undo(1000);
-  const EditResult undone = tick_until(undo, ws, s.rig);
+  const HistoryMoveResult undone = tick_until(undo, ws, s.rig);
   ASSERT_EQ(undone.error, "");
   EXPECT_GT(undone.done, 0u);
   s.rig.run(50);
@@ -238,7 +238,7 @@ TEST(Keeper, UndoAllThenRedoAllGivesTheSameBits) {
   for (const StrokeInfo& st : s.keeper.history().strokes) EXPECT_TRUE(st.undone);
 
   auto redo = s.keeper.redo(1000);
-  const EditResult redone = tick_until(redo, ws, s.rig);
+  const HistoryMoveResult redone = tick_until(redo, ws, s.rig);
   ASSERT_EQ(redone.error, "");
   EXPECT_EQ(redone.done, undone.done);
   s.rig.run(50);
@@ -256,7 +256,7 @@ TEST(Keeper, UndoWorksAfterARecovery) {
   {
     Sculpt s(dir);
     untouched = s.rig.sim().world->hash();
-    while (!s.rig.session_done()) s.rig.run(100);
+    while (!s.rig.recording_done()) s.rig.run(100);
     s.rig.run(3000);
     s.keeper.stop();
   }
@@ -271,7 +271,7 @@ TEST(Keeper, UndoWorksAfterARecovery) {
   kj::EventLoop loop;
   kj::WaitScope ws(loop);
   auto undo = keeper.undo(1000);
-  const EditResult undone = tick_until(undo, ws, rig);
+  const HistoryMoveResult undone = tick_until(undo, ws, rig);
   ASSERT_EQ(undone.error, "");
   rig.run(50);
   EXPECT_EQ(rig.sim().world->hash(), untouched);
@@ -310,7 +310,7 @@ TEST(Keeper, AStoreCopiedAtAnyMomentRecoversTheExactTickItSays) {
   const std::uint64_t untouched = s.rig.sim().world->hash();
   bool recovered_some = false;
   const int copies = short_run() ? 4 : 1000;
-  for (int i = 0; !s.rig.session_done() && static_cast<int>(crashes.size()) < copies; ++i) {
+  for (int i = 0; !s.rig.recording_done() && static_cast<int>(crashes.size()) < copies; ++i) {
     s.rig.run(50);
     std::this_thread::sleep_for(std::chrono::microseconds(pause_us(seeded)));
     if (i % 12 == 5) {
@@ -353,7 +353,7 @@ TEST(Keeper, AJournalCutAtEveryFrameRecoversAPrefixExactly) {
   journal_only.replay_work_per_snapshot = std::chrono::hours(1);
   Sculpt s(dir, "pull.jsonl", journal_only);
   const std::uint64_t untouched = s.rig.sim().world->hash();
-  for (int i = 0; i < (short_run() ? 20 : 60); ++i) {  // 1-3 s of the session, a commit every few ticks
+  for (int i = 0; i < (short_run() ? 20 : 60); ++i) {  // 1-3 s of the recording, a commit every few ticks
     s.rig.run(50);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }

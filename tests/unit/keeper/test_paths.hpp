@@ -1,4 +1,4 @@
-// What the keeper tests share: where the sessions are, a fresh directory.
+// What the keeper tests share: where the recordings are, a fresh directory.
 #pragma once
 
 #include <filesystem>
@@ -13,8 +13,8 @@
 
 namespace sculpt::daemon::testing {
 
-inline std::string session_path(const std::string& name) {
-  return std::string(SCULPT_TEST_DATA) + "/sessions/" + name;
+inline std::string recording_path(const std::string& name) {
+  return std::string(SCULPT_TEST_DATA) + "/recordings/" + name;
 }
 
 inline std::filesystem::path fresh_dir(const std::string& name) { return support::fresh_scratch_dir("keep-" + name); }

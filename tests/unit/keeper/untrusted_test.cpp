@@ -42,7 +42,7 @@ KeeperSettings settings(const fs::path& dir) {
   return s;
 }
 
-// The push session on the default scene, sculpted with a keeper that
+// The push recording on the default scene, sculpted with a keeper that
 // snapshots every 150 ms, run to rest and stopped: made once, copied by
 // each test.
 struct Made {
@@ -56,13 +56,13 @@ const Made& made() {
     Made m;
     m.dir = testing::fresh_dir("untrusted-made");
     JournalTap tap;
-    Rig rig(&tap, testing::session_path("push.jsonl"));
+    Rig rig(&tap, testing::recording_path("push.jsonl"));
     Keeper keeper(settings(m.dir), tap);
     keeper.start_anew();
     keeper.scene_started(rig.bundle(), std::make_shared<const scene::Scene>(rig.sim().scene), 0);
     keeper.start();
     rig.start_at(0);
-    while (!rig.session_done()) {
+    while (!rig.recording_done()) {
       rig.run(100);
       std::this_thread::sleep_for(std::chrono::milliseconds(20));  // several snapshots on the way
     }
@@ -581,7 +581,7 @@ TEST(KeeperUntrusted, AnAttachWithABindingNoDeviceHasStopsTheReplayThere) {
 std::vector<std::byte> stroke_blob(const Stroke& s) {
   std::vector<std::byte> out;
   sim::StateWriter w(out);
-  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.edit), w.value(s.vertices);
+  w.value(s.number), w.value(s.scene), w.value(s.body), w.value(s.summary), w.value(s.vertices);
   w.value(static_cast<std::uint8_t>(s.undone)), w.value(static_cast<std::uint64_t>(s.image_bytes));
   w.array(std::span<const char>(s.mesh.data(), s.mesh.size()));
   w.array(s.blocks), w.array(s.images);
@@ -603,7 +603,7 @@ History_ replace_history(const fs::path& dir, std::size_t count, std::uint32_t b
   st.scene = s.meta.at("scene").get<std::uint32_t>();
   st.body = body;
   st.mesh = load_bundle(*opened.bundle).meshes[body].name;
-  st.edit = {1, 0, 2, 1};
+  st.summary = {1, 0, 2, 1};
   st.image_bytes = w.block_image_bytes(body);
   for (std::uint32_t k = 0; k < blocks; ++k) {
     st.blocks.push_back(k);

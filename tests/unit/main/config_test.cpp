@@ -44,7 +44,7 @@ TEST(Config, EveryKeyIsRead) {
 scene = "s.toml"
 socket = "/tmp/x.sock"
 rate_hz = 500
-input = "replay:session.jsonl"
+input = "replay:recording.jsonl"
 input_clock = "device"
 input_delay_ms = 20
 duration = 3.5
@@ -109,7 +109,7 @@ name = "pad"
   EXPECT_EQ(c.socket, "/tmp/x.sock");
   EXPECT_EQ(c.rate_hz.value_or(0), 500.0);
   EXPECT_EQ(c.input.kind, InputSpec::Kind::replay);
-  EXPECT_EQ(c.input.replay, "session.jsonl");
+  EXPECT_EQ(c.input.replay, "recording.jsonl");
   EXPECT_EQ(c.input_clock, InputClock::device);
   EXPECT_EQ(c.input_delay_ms, 20.0);
   EXPECT_EQ(c.duration_s, 3.5);

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """sculptd as a program, without devices (unit suite): flags, errors,
---check, a replayed session twice (same mesh hash, the stats JSON's keys),
+--check, a replayed recording twice (same mesh hash, the stats JSON's keys),
 SIGTERM and SIGHUP while running.
 
-    sculptd_cli_test.py SCULPTD SCENES_DIR SESSIONS_DIR
+    sculptd_cli_test.py SCULPTD SCENES_DIR RECORDINGS_DIR
 """
 import json
 import os
@@ -14,7 +14,7 @@ import tempfile
 import time
 import unittest
 
-SCULPTD, SCENES, SESSIONS = sys.argv[1], sys.argv[2], sys.argv[3]
+SCULPTD, SCENES, RECORDINGS = sys.argv[1], sys.argv[2], sys.argv[3]
 # Every daemon started here listens in a private directory: never on the
 # default path, where a real service or another test's daemon may listen.
 _SOCKET_DIR = tempfile.TemporaryDirectory(prefix="sculptd-cli-test-")
@@ -97,13 +97,13 @@ class Replay(unittest.TestCase):
     def replay(self, tmp, name):
         stats, hash_out = os.path.join(tmp, name + ".json"), os.path.join(tmp, name + ".hash")
         r = run("--scene", os.path.join(SCENES, "e2e_default_coarse.toml"), "--rate", "500",
-                "--input", "replay:" + os.path.join(SESSIONS, "push.jsonl"), "--duration", "2",
+                "--input", "replay:" + os.path.join(RECORDINGS, "push.jsonl"), "--duration", "2",
                 "--stats-json", stats, "--hash-out", hash_out)
         self.assertEqual(r.returncode, 0, r.stderr)
         with open(stats) as f, open(hash_out) as h:
             return json.load(f), h.read().strip()
 
-    def test_same_session_same_mesh_and_the_stats_keys(self):
+    def test_same_recording_same_mesh_and_the_stats_keys(self):
         with tempfile.TemporaryDirectory() as tmp:
             s1, h1 = self.replay(tmp, "a")
             s2, h2 = self.replay(tmp, "b")
@@ -127,7 +127,7 @@ class Signals(unittest.TestCase):
                 f.write("[haptics]\ngain = 1000\n")
             stats = os.path.join(tmp, "s.json")
             p = subprocess.Popen([SCULPTD, "--config", conf, "--stats-json", stats,
-                                  "--input", "replay:" + os.path.join(SESSIONS, "push.jsonl"),
+                                  "--input", "replay:" + os.path.join(RECORDINGS, "push.jsonl"),
                                   "--scene", os.path.join(SCENES, "e2e_ball.toml")],
                                  stderr=subprocess.PIPE, text=True)
             lines = []

@@ -23,13 +23,17 @@ TEST(Proto, MethodsKeepTheirOrdinalsAndEachMinorAppendsItsOwn) {
   // A method's ordinal is what goes on the wire: an old client's call must
   // still reach the same method.
   const auto session = capnp::Schema::from<sculpt::proto::Session>();
-  const char* methods[] = {"status", "devices", "snapshot", "subscribe", "loadScene", "reset",
+  const char* methods[] = {"status", "devices", "keyframe", "subscribe", "loadScene", "reset",
                            "pause",  "resume",  "undo",     "redo",      "history",   "exportSculpt",
                            "tuneHaptics"};
   ASSERT_EQ(session.getMethods().size(), std::size(methods));
   for (unsigned i = 0; i < std::size(methods); ++i)
     EXPECT_EQ(session.getMethodByName(methods[i]).getOrdinal(), i) << methods[i];
   EXPECT_EQ(capnp::Schema::from<sculpt::proto::ExportReader>().getMethodByName("read").getOrdinal(), 0u);
+  EXPECT_EQ(capnp::Schema::from<sculpt::proto::Viewer>().getMethodByName("keyframe").getOrdinal(), 0u);
+  EXPECT_EQ(capnp::Schema::from<sculpt::proto::Viewer>().getMethodByName("frame").getOrdinal(), 1u);
+  // Keyframe was named Snapshot: it keeps that name's type ID.
+  EXPECT_EQ(capnp::typeId<sculpt::proto::Keyframe>(), 0x826e371020de7da3u);
   EXPECT_EQ(capnp::Schema::from<sculpt::proto::Sculptd>().getMethodByName("hello").getOrdinal(), 0u);
   EXPECT_GE(sculpt::proto::PROTOCOL_MINOR, 6) << "tuneHaptics came with minor 6";
 }

@@ -1,5 +1,5 @@
 // The client library without a daemon: the socket path rule and the
-// MeshMirror (snapshot, deltas, changed ranges, bad frames change nothing).
+// MeshMirror (keyframe, deltas, changed ranges, bad frames change nothing).
 #include <cstring>
 #include <map>
 
@@ -34,7 +34,7 @@ TEST(SocketPath, FlagThenSculptdSocketThenRuntimeDirectoryThenXdgThenRun) {
 void set_floats(capnp::Data::Builder d, std::initializer_list<float> v) { std::memcpy(d.begin(), v.begin(), v.size() * 4); }
 
 // Two meshes: id 3 with 4 vertices, id 9 with 3.
-void make_snapshot(proto::Snapshot::Builder s) {
+void make_keyframe(proto::Keyframe::Builder s) {
   s.setSequence(10);
   auto meshes = s.initMeshes(2);
   meshes[0].setId(3);
@@ -52,11 +52,11 @@ void make_snapshot(proto::Snapshot::Builder s) {
   s.initTools(1)[0].initPosition().setY(0.2f);
 }
 
-TEST(MeshMirror, AppliesASnapshotThenDeltasAndNamesTheChangedRanges) {
-  capnp::MallocMessageBuilder snap;
-  make_snapshot(snap.initRoot<proto::Snapshot>());
+TEST(MeshMirror, AppliesAKeyframeThenDeltasAndNamesTheChangedRanges) {
+  capnp::MallocMessageBuilder keyframe_msg;
+  make_keyframe(keyframe_msg.initRoot<proto::Keyframe>());
   MeshMirror m(/*merge_gap=*/0);
-  auto all = m.apply(snap.getRoot<proto::Snapshot>().asReader());
+  auto all = m.apply(keyframe_msg.getRoot<proto::Keyframe>().asReader());
   ASSERT_EQ(all.size(), 2u);
   EXPECT_EQ(all[0].end, 4u);
   EXPECT_EQ(all[1].end, 3u);
@@ -87,7 +87,7 @@ TEST(MeshMirror, AppliesASnapshotThenDeltasAndNamesTheChangedRanges) {
   EXPECT_EQ(m.published_ns(), 77);
 
   MeshMirror merging(/*merge_gap=*/8);
-  merging.apply(snap.getRoot<proto::Snapshot>().asReader());
+  merging.apply(keyframe_msg.getRoot<proto::Keyframe>().asReader());
   auto one = merging.apply(f.asReader());
   ASSERT_EQ(one.size(), 1u);
   EXPECT_EQ(one[0].end, 4u);
@@ -99,16 +99,16 @@ TEST(MeshMirror, AppliesASnapshotThenDeltasAndNamesTheChangedRanges) {
   EXPECT_EQ(m.keepalives(), 1u);
 }
 
-TEST(MeshMirror, AFrameThatDoesNotFitTheSnapshotThrowsAndChangesNothing) {
-  capnp::MallocMessageBuilder snap;
-  make_snapshot(snap.initRoot<proto::Snapshot>());
+TEST(MeshMirror, AFrameThatDoesNotFitTheKeyframeThrowsAndChangesNothing) {
+  capnp::MallocMessageBuilder keyframe_msg;
+  make_keyframe(keyframe_msg.initRoot<proto::Keyframe>());
   MeshMirror m;
   {
     capnp::MallocMessageBuilder fm;
-    EXPECT_THROW(m.apply(fm.initRoot<proto::DeltaFrame>().asReader()), MirrorError);  // before a snapshot
+    EXPECT_THROW(m.apply(fm.initRoot<proto::DeltaFrame>().asReader()), MirrorError);  // before a keyframe
   }
-  m.apply(snap.getRoot<proto::Snapshot>().asReader());
-  auto bad = [&](auto edit) {
+  m.apply(keyframe_msg.getRoot<proto::Keyframe>().asReader());
+  auto bad = [&](auto change) {
     capnp::MallocMessageBuilder fm;
     auto f = fm.initRoot<proto::DeltaFrame>();
     auto d = f.initMeshes(2);
@@ -116,7 +116,7 @@ TEST(MeshMirror, AFrameThatDoesNotFitTheSnapshotThrowsAndChangesNothing) {
     d[0].initIndices(1).set(0, 0);
     set_floats(d[0].initPositions(12), {100, 100, 100});
     d[1].setMeshId(3);
-    edit(d[1]);
+    change(d[1]);
     EXPECT_THROW(m.apply(f.asReader()), MirrorError);
     EXPECT_EQ(m.meshes()[1].positions[0], 5.0f) << "a bad frame changed the mirror";
   };

@@ -62,13 +62,13 @@ class FakeControl final : public server::DaemonControl {
   }
   bool paused_now() override { return paused; }
 
-  kj::Promise<server::EditOutcome> undo(std::uint32_t count) override {
+  kj::Promise<server::HistoryMoveOutcome> undo(std::uint32_t count) override {
     undo_counts.push_back(count);
-    return edit(count);
+    return move_history(count);
   }
-  kj::Promise<server::EditOutcome> redo(std::uint32_t count) override {
+  kj::Promise<server::HistoryMoveOutcome> redo(std::uint32_t count) override {
     redo_counts.push_back(count);
-    return edit(count);
+    return move_history(count);
   }
   // history_now paged as the daemon pages it; what was asked is kept.
   server::History history(std::uint32_t from, std::uint32_t limit) override {
@@ -117,10 +117,10 @@ class FakeControl final : public server::DaemonControl {
     return paf.promise.then([this] { return make_export(); });
   }
 
-  // Answers the oldest held call (undo/redo: with edit_outcome; export: a file).
-  void release_edit() {
-    held_edits.front()->fulfill();
-    held_edits.erase(held_edits.begin());
+  // Answers the oldest held call (undo/redo: with history_move_outcome; export: a file).
+  void release_history_move() {
+    held_history_moves.front()->fulfill();
+    held_history_moves.erase(held_history_moves.begin());
   }
   void release_export() {
     held_exports.front()->fulfill();
@@ -145,9 +145,9 @@ class FakeControl final : public server::DaemonControl {
 
   // Set by the test.
   bool paused = false;
-  server::EditOutcome edit_outcome{"", 1, 1000};
-  bool edits_throw = false;    // the daemon's promise breaks
-  bool hold_edits = false;     // answered only by release_edit()
+  server::HistoryMoveOutcome history_move_outcome{"", 1, 1000};
+  bool history_moves_throw = false;    // the daemon's promise breaks
+  bool hold_history_moves = false;     // answered only by release_history_move()
   server::History history_now;
   std::string export_bytes = "sculpt";
   std::string export_error;    // the daemon's refusal
@@ -158,18 +158,18 @@ class FakeControl final : public server::DaemonControl {
   // What it was asked.
   std::vector<std::uint32_t> undo_counts, redo_counts;
   int exports_asked = 0;
-  std::vector<kj::Own<kj::PromiseFulfiller<void>>> held_edits, held_exports;
+  std::vector<kj::Own<kj::PromiseFulfiller<void>>> held_history_moves, held_exports;
 
  private:
-  kj::Promise<server::EditOutcome> edit(std::uint32_t count) {
-    if (edits_throw) return KJ_EXCEPTION(FAILED, "the sim thread is gone");
-    if (!hold_edits) return answer(count);
+  kj::Promise<server::HistoryMoveOutcome> move_history(std::uint32_t count) {
+    if (history_moves_throw) return KJ_EXCEPTION(FAILED, "the sim thread is gone");
+    if (!hold_history_moves) return answer(count);
     auto paf = kj::newPromiseAndFulfiller<void>();
-    held_edits.push_back(kj::mv(paf.fulfiller));
+    held_history_moves.push_back(kj::mv(paf.fulfiller));
     return paf.promise.then([this, count] { return answer(count); });
   }
-  server::EditOutcome answer(std::uint32_t count) const {
-    server::EditOutcome o = edit_outcome;
+  server::HistoryMoveOutcome answer(std::uint32_t count) const {
+    server::HistoryMoveOutcome o = history_move_outcome;
     if (o.error.empty() && o.done == 0) o.done = count;
     return o;
   }

@@ -41,7 +41,7 @@ bool has(const std::string& text, const std::string& part) { return text.find(pa
 
 TEST(Sculptctl, UndoAndRedoPassNAndPrintWhatWasDone) {
   TempDir dir;
-  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"", 0, 12345}; });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.history_move_outcome = {"", 0, 12345}; });
   auto r = ctl(d, {"undo"});
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.out, "undid 1 stroke at tick 12345\n");
@@ -63,7 +63,7 @@ TEST(Sculptctl, UndoAndRedoPassNAndPrintWhatWasDone) {
   d.with_control([](FakeControl& c) {
     EXPECT_EQ(c.undo_counts, (std::vector<std::uint32_t>{1, 3}));
     EXPECT_EQ(c.redo_counts, (std::vector<std::uint32_t>{2, 10000}));
-    c.edit_outcome = {"", 2, 13000};
+    c.history_move_outcome = {"", 2, 13000};
   });
   r = ctl(d, {"undo", "5"});
   EXPECT_EQ(r.status, 0) << r.err;
@@ -72,7 +72,7 @@ TEST(Sculptctl, UndoAndRedoPassNAndPrintWhatWasDone) {
 
 TEST(Sculptctl, ARefusedUndoIsTheDaemonsErrorOnStderrAndExit1) {
   TempDir dir;
-  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.edit_outcome = {"nothing to undo", 0, 0}; });
+  FakeDaemon d((dir.path() / "s.sock").string(), [](FakeControl& c) { c.history_move_outcome = {"nothing to undo", 0, 0}; });
   auto r = ctl(d, {"undo"});
   EXPECT_EQ(r.status, 1);
   EXPECT_EQ(r.out, "");

@@ -54,7 +54,7 @@ std::string failure(Promise&& p, kj::WaitScope& ws) {
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-struct Edit {
+struct HistoryMove {
   bool ok;
   std::string error;
   std::uint32_t done;
@@ -62,20 +62,20 @@ struct Edit {
 };
 
 template <class Reply>
-Edit edit_of(Reply r) {
+HistoryMove history_move_of(Reply r) {
   return {r.getResult().getOk(), r.getResult().getError().cStr(), r.getDone(), r.getTick()};
 }
 
-Edit undo(Client& c, Harness& h, std::uint32_t count) {
+HistoryMove undo(Client& c, Harness& h, std::uint32_t count) {
   auto req = c.session.undoRequest();
   req.setCount(count);
-  return edit_of(req.send().wait(h.io.waitScope));
+  return history_move_of(req.send().wait(h.io.waitScope));
 }
 
-Edit redo(Client& c, Harness& h, std::uint32_t count) {
+HistoryMove redo(Client& c, Harness& h, std::uint32_t count) {
   auto req = c.session.redoRequest();
   req.setCount(count);
-  return edit_of(req.send().wait(h.io.waitScope));
+  return history_move_of(req.send().wait(h.io.waitScope));
 }
 
 struct Opened {
@@ -115,8 +115,8 @@ TEST(Session, TheHelloSaysTheMinorTheServerSpeaks) {
 TEST(Undo, TheCountReachesTheDaemonAndItsOutcomeComesBack) {
   Harness h;
   Client c(h);
-  h.control.edit_outcome = {"", 0, 12345};
-  Edit e = undo(c, h, 3);
+  h.control.history_move_outcome = {"", 0, 12345};
+  HistoryMove e = undo(c, h, 3);
   EXPECT_TRUE(e.ok) << e.error;
   EXPECT_EQ(e.error, "");
   EXPECT_EQ(e.done, 3u);
@@ -127,7 +127,7 @@ TEST(Undo, TheCountReachesTheDaemonAndItsOutcomeComesBack) {
   EXPECT_EQ(h.control.undo_counts, std::vector<std::uint32_t>{3});
   EXPECT_EQ(h.control.redo_counts, std::vector<std::uint32_t>{2});
   // Fewer done than asked is the daemon's to say.
-  h.control.edit_outcome = {"", 1, 12400};
+  h.control.history_move_outcome = {"", 1, 12400};
   e = undo(c, h, 5);
   EXPECT_TRUE(e.ok);
   EXPECT_EQ(e.done, 1u);
@@ -136,11 +136,11 @@ TEST(Undo, TheCountReachesTheDaemonAndItsOutcomeComesBack) {
 TEST(Undo, TheDaemonsRefusalIsTheResultsError) {
   Harness h;
   Client c(h);
-  h.control.edit_outcome = {"nothing to undo", 0, 0};
-  Edit e = undo(c, h, 1);
+  h.control.history_move_outcome = {"nothing to undo", 0, 0};
+  HistoryMove e = undo(c, h, 1);
   EXPECT_FALSE(e.ok);
   EXPECT_EQ(e.error, "nothing to undo");
-  h.control.edit_outcome = {"stroke 4 was made before a scene reload at tick 9000", 0, 0};
+  h.control.history_move_outcome = {"stroke 4 was made before a scene reload at tick 9000", 0, 0};
   e = redo(c, h, 1);
   EXPECT_FALSE(e.ok);
   EXPECT_EQ(e.error, "stroke 4 was made before a scene reload at tick 9000");
@@ -150,7 +150,7 @@ TEST(Undo, CountsOutsideOneToTheLimitAreRefusedWithoutAskingTheDaemon) {
   Harness h;
   Client c(h);
   for (const std::uint32_t bad : {0u, 10001u, 4294967295u}) {
-    Edit e = undo(c, h, bad);
+    HistoryMove e = undo(c, h, bad);
     EXPECT_FALSE(e.ok) << bad;
     EXPECT_TRUE(has(e.error, "count " + std::to_string(bad))) << e.error;
     EXPECT_TRUE(has(e.error, "1 to 10000")) << e.error;
@@ -167,19 +167,19 @@ TEST(Undo, CountsOutsideOneToTheLimitAreRefusedWithoutAskingTheDaemon) {
 TEST(Undo, ABrokenDaemonPromiseIsAnErrorResultNotAFailedCall) {
   Harness h;
   Client c(h);
-  h.control.edits_throw = true;
-  const Edit e = undo(c, h, 1);
+  h.control.history_moves_throw = true;
+  const HistoryMove e = undo(c, h, 1);
   EXPECT_FALSE(e.ok);
   EXPECT_TRUE(has(e.error, "the daemon's undo failed")) << e.error;
   EXPECT_TRUE(has(e.error, "the sim thread is gone")) << e.error;
-  h.control.edits_throw = false;
+  h.control.history_moves_throw = false;
   EXPECT_TRUE(undo(c, h, 1).ok) << "the connection must still serve";
 }
 
 TEST(Undo, CallsBeingAppliedAreBoundedPerConnection) {
   Harness h;
   Client a(h), b(h);
-  h.control.hold_edits = true;
+  h.control.hold_history_moves = true;
   std::vector<kj::Promise<capnp::Response<proto::Session::UndoResults>>> held;
   for (int i = 0; i < 4; ++i) {
     auto req = a.session.undoRequest();
@@ -187,10 +187,10 @@ TEST(Undo, CallsBeingAppliedAreBoundedPerConnection) {
     held.push_back(req.send());
   }
   h.turn();
-  ASSERT_EQ(h.control.held_edits.size(), 4u);
-  Edit e = undo(a, h, 1);
+  ASSERT_EQ(h.control.held_history_moves.size(), 4u);
+  HistoryMove e = undo(a, h, 1);
   EXPECT_FALSE(e.ok);
-  EXPECT_TRUE(has(e.error, "max_pending_edits_per_client")) << e.error;
+  EXPECT_TRUE(has(e.error, "max_pending_history_moves_per_client")) << e.error;
   EXPECT_EQ(h.control.undo_counts.size(), 4u) << "the refused call reached the daemon";
   // Another connection is not held up by this one's.
   auto other = b.session.redoRequest();
@@ -199,17 +199,17 @@ TEST(Undo, CallsBeingAppliedAreBoundedPerConnection) {
   h.turn();
   EXPECT_EQ(h.control.redo_counts.size(), 1u);
   // One answered: a place is free again.
-  h.control.release_edit();
-  EXPECT_TRUE(edit_of(held[0].wait(h.io.waitScope)).ok);
+  h.control.release_history_move();
+  EXPECT_TRUE(history_move_of(held[0].wait(h.io.waitScope)).ok);
   auto again = a.session.undoRequest();
   again.setCount(1);
   auto again_reply = again.send();
   h.turn();
   EXPECT_EQ(h.control.undo_counts.size(), 5u);
-  while (!h.control.held_edits.empty()) h.control.release_edit();
-  for (std::size_t i = 1; i < held.size(); ++i) EXPECT_TRUE(edit_of(held[i].wait(h.io.waitScope)).ok);
-  EXPECT_TRUE(edit_of(other_reply.wait(h.io.waitScope)).ok);
-  EXPECT_TRUE(edit_of(again_reply.wait(h.io.waitScope)).ok);
+  while (!h.control.held_history_moves.empty()) h.control.release_history_move();
+  for (std::size_t i = 1; i < held.size(); ++i) EXPECT_TRUE(history_move_of(held[i].wait(h.io.waitScope)).ok);
+  EXPECT_TRUE(history_move_of(other_reply.wait(h.io.waitScope)).ok);
+  EXPECT_TRUE(history_move_of(again_reply.wait(h.io.waitScope)).ok);
 }
 
 struct Tuned {

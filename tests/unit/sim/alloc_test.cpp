@@ -52,8 +52,8 @@ TEST(RealTime, StepDoesNotAllocate) {
   }
 }
 
-// An edit sink that keeps nothing (a checksum), so what is counted is the
-// world's own recording, and undo's swaps.
+// A stroke sink that keeps nothing (a checksum), so what is counted is the
+// world's own capture, and undo's exchanges.
 class ChecksumSink : public StrokeSink {
  public:
   void opened(std::uint32_t, std::uint64_t) override { ++opened_; }
@@ -66,7 +66,7 @@ class ChecksumSink : public StrokeSink {
   unsigned long sum_ = 0;
 };
 
-TEST(RealTime, RecordingEditsAndSwappingImagesDoNotAllocate) {
+TEST(RealTime, CapturingStrokesAndExchangingImagesDoNotAllocate) {
   World<float> w(SimSettings{}, 2);
   Material clay;
   clay.plastic = true;

@@ -1,6 +1,6 @@
-// Helpers of the edits tests: a sink that keeps every edit and its images,
+// Helpers of the strokes tests: a sink that keeps every stroke and its images,
 // and World::state() taken apart by block, independently of the block
-// images, so the tests can tell what an edit changed.
+// images, so the tests can tell what a stroke changed.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -17,7 +17,7 @@
 
 namespace sculpt::sim::test {
 
-struct RecordedEdit {
+struct RecordedStroke {
   std::uint32_t body = 0;
   StrokeSummary summary;
   bool closed = false;
@@ -25,25 +25,25 @@ struct RecordedEdit {
   std::vector<std::vector<std::byte>> images{};  // beside them
 };
 
-// Keeps every edit; flags what breaks the sink's contract.
-class RecordingSink : public StrokeSink {
+// Keeps every stroke; flags what breaks the sink's contract.
+class KeepingSink : public StrokeSink {
  public:
-  explicit RecordingSink(std::size_t bodies) : open_(bodies, -1) {}
+  explicit KeepingSink(std::size_t bodies) : open_(bodies, -1) {}
   void opened(std::uint32_t body, std::uint64_t tick) override {
     EXPECT_EQ(open_.at(body), -1) << "body " << body << " opened twice";
-    open_[body] = static_cast<int>(edits.size());
-    edits.push_back({.body = body, .summary = {.first_tick = tick}});
+    open_[body] = static_cast<int>(strokes.size());
+    strokes.push_back({.body = body, .summary = {.first_tick = tick}});
   }
   void captured(std::uint32_t body, std::uint32_t block, std::span<const std::byte> image) override {
-    ASSERT_NE(open_.at(body), -1) << "captured with no edit open";
-    RecordedEdit& e = edits[static_cast<std::size_t>(open_[body])];
+    ASSERT_NE(open_.at(body), -1) << "captured with no stroke open";
+    RecordedStroke& e = strokes[static_cast<std::size_t>(open_[body])];
     for (std::uint32_t b : e.blocks) EXPECT_NE(b, block) << "block " << block << " captured twice";
     e.blocks.push_back(block);
     e.images.emplace_back(image.begin(), image.end());
   }
   void closed(std::uint32_t body, const StrokeSummary& s) override {
-    ASSERT_NE(open_.at(body), -1) << "closed with no edit open";
-    RecordedEdit& e = edits[static_cast<std::size_t>(open_[body])];
+    ASSERT_NE(open_.at(body), -1) << "closed with no stroke open";
+    RecordedStroke& e = strokes[static_cast<std::size_t>(open_[body])];
     EXPECT_EQ(s.first_tick, e.summary.first_tick);
     e.summary = s;
     e.closed = true;
@@ -54,7 +54,7 @@ class RecordingSink : public StrokeSink {
       if (o != -1) return true;
     return false;
   }
-  std::vector<RecordedEdit> edits;
+  std::vector<RecordedStroke> strokes;
 
  private:
   std::vector<int> open_;
@@ -160,12 +160,12 @@ std::vector<BodyBytes> split_state(std::span<const std::byte> bytes) {
       p.array(sizeof(Grab<S>), {});
       p.value<std::uint32_t>(), p.value<std::uint8_t>();
     }
-    for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // snapshot
+    for (int k = 0; k < 3; ++k) rows(body, p.array(2, {n}), 2, 1);  // checkpoint
     per_block(body, p.array(sizeof(CheckpointGrid<S>), {blocks}), sizeof(CheckpointGrid<S>));
-    for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's snapshot rest shape
+    for (int k = 0; k < 3; ++k) rows(body, p.array(s, {n, 0}), s, 1);  // clay's checkpoint rest shape
     columns(body, p.array(s, {cols * n, 0}), s, n);
     p.value<double>(), p.value<double>(), p.value<std::uint64_t>();  // energies, blow-ups
-    p.value<int>(), p.value<int>(), p.value<bool>();                 // boost, snapshot age, input
+    p.value<int>(), p.value<int>(), p.value<bool>();                 // boost, checkpoint age, input
   }
   return out;
 }

@@ -233,7 +233,7 @@ TEST(State, ValuesAWorldCannotHoldAreRefusedByNameAndChangeNothing) {
                  "mesh 0: block 0 flag is 2, not a flag");
   expect_refused(changed([&](auto& b) { put(b, blocks + offsetof(BlockState<float>, reach), 5.0f); }),
                  "mesh 0: block 0: its reach is not the scene's");
-  // The tail: the last mesh's energy, energy reference, blow-ups, boost, snapshot age, input flag; then the
+  // The tail: the last mesh's energy, energy reference, blow-ups, boost, checkpoint age, input flag; then the
   // tools' tracks, the tick, the blow-ups and the last one's mesh and cause.
   const std::size_t tracks = good.size() - 21 - 2 * sizeof(ToolTrack<float>);
   const std::size_t boost = tracks - 8 - 1 - 4 - 4;
@@ -257,7 +257,7 @@ TEST(State, ValuesAWorldCannotHoldAreRefusedByNameAndChangeNothing) {
 
 // Random bytes anywhere in a state: refused by name (nothing changed), or
 // bytes no step reads (the unused slots of a grab list, the guard's
-// quantized snapshot): the world then steps on without a blow-up.
+// quantized checkpoint): the world then steps on without a blow-up.
 TEST(State, RandomBytesAreRefusedOrStepOnWithoutBlowingUp) {
   World<float> reference = three_meshes();
   const std::vector<std::byte> good = reference.state();

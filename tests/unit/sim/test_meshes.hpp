@@ -54,7 +54,7 @@ inline TriangleMesh chain(int free_masses, float h) {
   return mesh;
 }
 
-// A random or degenerate mesh (sim_fuzz, sim_edits): triangle soup with
+// A random or degenerate mesh (sim_fuzz, sim_strokes): triangle soup with
 // non-manifold edges and isolated vertices, duplicated and coincident
 // vertices, zero-length edges, a vertex of degree 80, a flat sheet.
 inline TriangleMesh random_mesh(std::mt19937& rng) {

@@ -302,9 +302,9 @@ TEST(Layout, EveryTriangleOnceNearOrFar) {
   EXPECT_EQ(std::count(met.begin(), met.end(), true), std::ssize(sphere.triangles)) << "triangles never met";
 }
 
-// The guard's snapshot keeps 16 bits per coordinate on a grid over each
+// The guard's checkpoint keeps 16 bits per coordinate on a grid over each
 // block's box: a saved position comes back within half a grid step (plus
-// rounding), and a block with a non-finite vertex keeps its older snapshot.
+// rounding), and a block with a non-finite vertex keeps its older checkpoint.
 TEST(Layout, CheckpointComesBackWithinItsGrid) {
   Body<float> b = make_body<float>(make_icosphere(0.1f, 3), Material{}, BodyOptions{}, 1);
   std::mt19937 rng(5);
@@ -323,7 +323,7 @@ TEST(Layout, CheckpointComesBackWithinItsGrid) {
   b.x[3] = std::numeric_limits<float>::quiet_NaN();
   b.x[5] += 0.01f;
   EXPECT_FALSE(b.save_positions(0));
-  EXPECT_EQ(b.saved_position(5), before) << "a block with a NaN keeps its older snapshot";
+  EXPECT_EQ(b.saved_position(5), before) << "a block with a NaN keeps its older checkpoint";
 }
 
 // Each body takes one step path, chosen when it is added (stepper.hpp), and

@@ -1,7 +1,7 @@
 // `sculptctl replay` through uinput recreates the recorded devices (names,
 // ids, absinfo, buttons, FF bits), answers FF uploads, and delivers the
 // recorded events with MSC_TIMESTAMP = the recorded time; `sculptctl record`
-// captures a live device into a session that reads back.
+// captures a live device into a recording that reads back.
 #include <gtest/gtest.h>
 
 #include <linux/input.h>
@@ -12,7 +12,7 @@
 #include <map>
 #include <thread>
 
-#include "input/session.hpp"
+#include "input/recording.hpp"
 #include "support/child_process.hpp"
 #include "support/evdev_client.hpp"
 #include "support/scratch_dir.hpp"
@@ -23,8 +23,8 @@
 #ifndef SCULPTCTL_BIN
 #error "SCULPTCTL_BIN must name the sculptctl binary"
 #endif
-#ifndef SCULPT_SESSIONS_DIR
-#error "SCULPT_SESSIONS_DIR must name tests/data/sessions"
+#ifndef SCULPT_RECORDINGS_DIR
+#error "SCULPT_RECORDINGS_DIR must name tests/data/recordings"
 #endif
 
 namespace sculpt::input {
@@ -66,8 +66,8 @@ DeviceInfo recorded_stick() {
   return d;
 }
 
-Session make_session() {
-  Session s;
+Recording make_recording() {
+  Recording s;
   s.header.devices = {recorded_pad(), recorded_stick()};
   std::int64_t t = 0;
   for (int i = 0; i < 150; ++i) {
@@ -80,7 +80,7 @@ Session make_session() {
   return s;
 }
 
-std::map<std::pair<int, int>, int> final_state(const Session& s, std::uint32_t device) {
+std::map<std::pair<int, int>, int> final_state(const Recording& s, std::uint32_t device) {
   std::map<std::pair<int, int>, int> m;
   for (const auto& f : s.frames)
     if (f.device == device)
@@ -102,9 +102,9 @@ Recorded replayed_only(const Recorded& events) {
 }
 
 TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
-  const Session session = make_session();
+  const Recording recording = make_recording();
   const auto file = temp("replay_vm.jsonl");
-  write_session(file, session);
+  write_recording(file, recording);
 
   Recorded events;
   DeviceManager manager(events);
@@ -171,7 +171,7 @@ TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) 
   const auto status = replay.wait(std::chrono::milliseconds(20000));
   ASSERT_TRUE(status.has_value());
   EXPECT_EQ(*status, 0) << replay.out().text();
-  EXPECT_NE(replay.out().text().find("replayed " + std::to_string(session.frames.size()) + " frames"), std::string::npos)
+  EXPECT_NE(replay.out().text().find("replayed " + std::to_string(recording.frames.size()) + " frames"), std::string::npos)
       << replay.out().text();
   EXPECT_NE(replay.out().text().find("answered 2 FF uploads"), std::string::npos) << replay.out().text();
 
@@ -179,12 +179,12 @@ TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) 
   // Every device ends where the recording ends.
   for (auto [slot, index] : {std::pair{pad_slot, 0u}, std::pair{stick_slot, 1u}}) {
     auto got = replayed.state(slot);
-    for (const auto& [key, value] : final_state(session, index))
+    for (const auto& [key, value] : final_state(recording, index))
       EXPECT_EQ(got[key], value) << "device " << index << " type " << key.first << " code " << key.second;
   }
   // Each frame carries its recorded time as the device clock.
   std::vector<std::int64_t> recorded;
-  for (const auto& f : session.frames)
+  for (const auto& f : recording.frames)
     if (f.device == 0) recorded.push_back(f.t_us);
   std::size_t matched = 0, pad_frames = 0;
   std::size_t resyncs = 0;
@@ -216,16 +216,16 @@ TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) 
   }
 }
 
-TEST(UinputReplay, ShippedSessionsPlay) {
+TEST(UinputReplay, ShippedRecordingsPlay) {
   // The three (bench_sculpt is the same moves, longer: the unit
   // suite reads it, sculptd's benchmark plays it). A sanitized -O0 build in
-  // the emulated guest reads ~3000-frame sessions some 20x slower: it plays
+  // the emulated guest reads ~3000-frame recordings some 20x slower: it plays
   // the shortest only; the plain build plays all three.
   std::vector<std::string> names{"push", "pull", "two_hands"};
   if (scaled(std::chrono::milliseconds(1)).count() > 1) names = {"push"};
   for (const std::string& name : names) {
-    const std::filesystem::path file = std::filesystem::path(SCULPT_SESSIONS_DIR) / (name + ".jsonl");
-    const Session s = read_session(file);
+    const std::filesystem::path file = std::filesystem::path(SCULPT_RECORDINGS_DIR) / (name + ".jsonl");
+    const Recording s = read_recording(file);
     ASSERT_FALSE(s.frames.empty()) << file;
     Recorded events;
     DeviceManager manager(events);
@@ -249,7 +249,7 @@ TEST(UinputReplay, ShippedSessionsPlay) {
   }
 }
 
-TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
+TEST(Record, CapturesALiveDeviceIntoARecordingThatReadsBack) {
   const auto file = temp("recorded_vm.jsonl");
   std::filesystem::remove(file);
   // No --duration: it records until SIGINT, sent once the moves are made.
@@ -269,7 +269,7 @@ TEST(Record, CapturesALiveDeviceIntoASessionThatReadsBack) {
   ASSERT_TRUE(status.has_value());
   ASSERT_EQ(*status, 0) << record.out().text();
 
-  const Session s = read_session(file);
+  const Recording s = read_recording(file);
   ASSERT_EQ(s.header.devices.size(), 1u);
   EXPECT_EQ(s.header.devices[0].name, "vm recorded pad");
   EXPECT_EQ(s.header.devices[0].kind, DeviceKind::gamepad);

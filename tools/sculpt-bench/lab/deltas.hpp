@@ -24,7 +24,7 @@ struct EncodedFrame {
 class DeltaEncoder {
  public:
   explicit DeltaEncoder(double tolerance_m) : tolerance2_(tolerance_m * tolerance_m) {}
-  // The snapshot the viewer starts from.
+  // The keyframe the viewer starts from.
   void add_mesh(std::span<const sim::Vec3f> positions);
   // Encodes the frame for the current positions (one span per mesh, as added) and
   // the tools, and moves the viewer's baseline to what it carried.

@@ -1,8 +1,8 @@
-// Edits and block images (sim/strokes.hpp, World::exchange_block_image): an edit
+// Strokes and block images (sim/strokes.hpp, World::exchange_block_image): a stroke
 // captures every block it changes before the change (checked against
-// World::state() taken apart by block, not against the images), swapping
-// the images back gives the body as it was when the edit opened, on every
-// step path; swapping twice changes nothing; a world undone and redone, or
+// World::state() taken apart by block, not against the images), exchanging
+// the images back gives the body as it was when the stroke opened, on every
+// step path; exchanging twice changes nothing; a world undone and redone, or
 // undone and sculpted on, steps on as one that never was; a sink changes no
 // result.
 #include <gtest/gtest.h>
@@ -70,14 +70,14 @@ void add_scene(World<S>& w, const Case& c) {
   o.max_grabbed = 512;  // a smaller state to take apart every tick
   w.add_body(make_icosphere(0.1f, test::kSanitized ? 3 : 4), m, o);
   // Pins hold the elastic torus; clay's would keep it awake for ever (its
-  // rest shape yields away from them, so they pull on it), and no edit of it
+  // rest shape yields away from them, so they pull on it), and no stroke of it
   // would close at rest.
   BodyOptions pinned = o;
   if (!c.clay) pinned.pinned = {0, 1, 2, 3};
   w.add_body(make_torus(0.3f, 0.05f, 48, 16), m, pinned);
 }
 
-// Most ticks here wait for a world to sleep, so its edits close. Sanitized,
+// Most ticks here wait for a world to sleep, so its strokes close. Sanitized,
 // it sleeps below 1 mm/s, not 0.1: the same sleeping, waking and closing at
 // rest, in fewer ticks.
 SimSettings settings(Integrator integrator = Integrator::position_verlet) {
@@ -116,7 +116,7 @@ std::vector<Tool> stroke_script(int tick) {
   return {press, grab};
 }
 
-// Drives a world with a RecordingSink and checks each edit as it closes:
+// Drives a world with a KeepingSink and checks each stroke as it closes:
 // every block it did not capture has the bytes it had before the onset.
 template <class S>
 class Recorder {
@@ -129,9 +129,9 @@ class Recorder {
     prev_ = std::move(cur_);
     w_.step(tools);
     cur_ = w_.state();
-    for (std::size_t k = closed.size(); k < sink_.edits.size(); ++k) {  // opened this tick: the onset was before it
-      EXPECT_EQ(sink_.edits[k].summary.first_tick, w_.tick());
-      onsets_.push_back(test::split_state<S>(prev_)[sink_.edits[k].body]);
+    for (std::size_t k = closed.size(); k < sink_.strokes.size(); ++k) {  // opened this tick: the onset was before it
+      EXPECT_EQ(sink_.strokes[k].summary.first_tick, w_.tick());
+      onsets_.push_back(test::split_state<S>(prev_)[sink_.strokes[k].body]);
     }
     check_newly_closed(closed);
   }
@@ -141,35 +141,35 @@ class Recorder {
     cur_ = w_.state();
     check_newly_closed(closed);
   }
-  // Undoes edits [first, end), newest first: after each, its body is as at its onset.
+  // Undoes strokes [first, end), newest first: after each, its body is as at its onset.
   void undo_all(const std::string& name, std::size_t first = 0) {
-    for (std::size_t k = sink_.edits.size(); k-- > first;) {
-      test::RecordedEdit& e = sink_.edits[k];
+    for (std::size_t k = sink_.strokes.size(); k-- > first;) {
+      test::RecordedStroke& e = sink_.strokes[k];
       for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.exchange_block_image(e.body, e.blocks[q], e.images[q]);
       const test::BodyBytes now = test::split_state<S>(w_.state())[e.body];
       for (std::size_t blk = 0; blk < now.blocks.size(); ++blk)
-        EXPECT_TRUE(now.blocks[blk] == onsets_[k].blocks[blk]) << name << ": edit " << k << ", block " << blk;
-      EXPECT_TRUE(now.derived == onsets_[k].derived) << name << ": edit " << k << ": the awake count or the box";
+        EXPECT_TRUE(now.blocks[blk] == onsets_[k].blocks[blk]) << name << ": stroke " << k << ", block " << blk;
+      EXPECT_TRUE(now.derived == onsets_[k].derived) << name << ": stroke " << k << ": the awake count or the box";
     }
   }
   void redo_all() {
-    for (test::RecordedEdit& e : sink_.edits)
+    for (test::RecordedStroke& e : sink_.strokes)
       for (std::size_t q = 0; q < e.blocks.size(); ++q) w_.exchange_block_image(e.body, e.blocks[q], e.images[q]);
   }
-  std::vector<test::RecordedEdit>& edits() { return sink_.edits; }
+  std::vector<test::RecordedStroke>& strokes() { return sink_.strokes; }
   bool any_open() const { return sink_.any_open(); }
 
  private:
   std::vector<bool> closed_now() const {
     std::vector<bool> closed;
-    for (const test::RecordedEdit& e : sink_.edits) closed.push_back(e.closed);
+    for (const test::RecordedStroke& e : sink_.strokes) closed.push_back(e.closed);
     return closed;
   }
   // In the state it closed in: after the tick that closed it, or (closed by
   // the next onset) the one before.
   void check_newly_closed(const std::vector<bool>& closed_before) {
-    for (std::size_t k = 0; k < sink_.edits.size(); ++k) {
-      const test::RecordedEdit& e = sink_.edits[k];
+    for (std::size_t k = 0; k < sink_.strokes.size(); ++k) {
+      const test::RecordedStroke& e = sink_.strokes[k];
       if (!e.closed || (k < closed_before.size() && closed_before[k])) continue;
       ASSERT_TRUE(e.summary.last_tick == w_.tick() || e.summary.last_tick + 1 == w_.tick());
       const test::BodyBytes now = test::split_state<S>(e.summary.last_tick == w_.tick() ? cur_ : prev_)[e.body];
@@ -177,16 +177,16 @@ class Recorder {
       for (std::uint32_t blk : e.blocks) captured.at(blk) = true;
       for (std::size_t blk = 0; blk < now.blocks.size(); ++blk)
         if (!captured[blk]) {
-          EXPECT_TRUE(now.blocks[blk] == onsets_[k].blocks[blk]) << "edit " << k << ": block " << blk << " changed uncaptured";
+          EXPECT_TRUE(now.blocks[blk] == onsets_[k].blocks[blk]) << "stroke " << k << ": block " << blk << " changed uncaptured";
         }
-      EXPECT_FALSE(e.blocks.empty()) << "edit " << k << " captured nothing";
+      EXPECT_FALSE(e.blocks.empty()) << "stroke " << k << " captured nothing";
     }
   }
 
   World<S>& w_;
-  test::RecordingSink sink_;
+  test::KeepingSink sink_;
   std::vector<std::byte> prev_, cur_;
-  std::vector<test::BodyBytes> onsets_;  // per edit
+  std::vector<test::BodyBytes> onsets_;  // per stroke
 };
 
 template <class S>
@@ -217,19 +217,19 @@ void record_undo_redo(const Case& c) {
     twin->step(stroke_script(tick));
     ASSERT_EQ(w.hash(), twin->hash()) << c.name << ": a sink changes nothing (tick " << tick << ")";
   }
-  ASSERT_FALSE(rec.any_open()) << c.name << ": every edit closes at rest";
+  ASSERT_FALSE(rec.any_open()) << c.name << ": every stroke closes at rest";
   ASSERT_TRUE(at_rest(w)) << c.name;
   EXPECT_TRUE(twin->state() == w.state()) << c.name << ": a sink changes nothing";
-  std::vector<test::RecordedEdit>& edits = rec.edits();
+  std::vector<test::RecordedStroke>& strokes = rec.strokes();
   // The sphere's: pressed, released, touched again before it was still.
-  std::vector<const test::RecordedEdit*> sphere;
-  for (const auto& e : edits)
+  std::vector<const test::RecordedStroke*> sphere;
+  for (const auto& e : strokes)
     if (e.body == 0) sphere.push_back(&e);
   ASSERT_EQ(sphere.size(), 2u) << c.name;
   EXPECT_GT(sphere[0]->summary.release_tick, sphere[0]->summary.first_tick) << c.name;
   EXPECT_EQ(sphere[1]->summary.first_tick, sphere[0]->summary.last_tick + 1) << c.name << ": closed by the next onset";
   EXPECT_EQ(sphere[0]->summary.tools, 1u) << c.name;
-  EXPECT_GT(edits.size(), sphere.size()) << c.name << ": the torus's too";
+  EXPECT_GT(strokes.size(), sphere.size()) << c.name << ": the torus's too";
 
   const std::vector<std::byte> before = w.state();
   rec.undo_all(c.name);
@@ -244,7 +244,7 @@ void record_undo_redo(const Case& c) {
   EXPECT_TRUE(twin->state() == w.state()) << c.name;
 }
 
-TEST(Edits, UndoGivesTheOnsetBackAndRedoTheSameBitsOnEveryPath) {
+TEST(Strokes, UndoGivesTheOnsetBackAndRedoTheSameBitsOnEveryPath) {
   for (const Case& c : kRunCases) record_undo_redo<float>(c);
   if (!test::kSanitized) record_undo_redo<double>({.name = "double, elastic"});
   record_undo_redo<double>({.name = "double, clay", .clay = true});
@@ -277,19 +277,19 @@ void undo_then_sculpt(const Case& c) {
   const std::optional<kernel::testing::ScopedPortable> portable =
       c.portable ? std::optional<kernel::testing::ScopedPortable>(std::in_place, true) : std::nullopt;
   const auto world = make_world<S>(c), twin = make_world<S>(c);
-  test::RecordingSink sink(world->body_count());
+  test::KeepingSink sink(world->body_count());
   world->set_stroke_sink(&sink);
   const Vec3d top{0, 1, 0}, side{0.6, 0.0, 0.8};
   until_rest(*world, [&](int t) { world->step(press_along(top, t)), twin->step(press_along(top, t)); }, 150);
   ASSERT_TRUE(twin->state() == world->state()) << c.name;
-  const std::size_t first = sink.edits.size();
+  const std::size_t first = sink.strokes.size();
   until_rest(*world, [&](int t) { world->step(press_along(side, t)), twin->step({}); }, 150);
-  ASSERT_GT(sink.edits.size(), first) << c.name;
+  ASSERT_GT(sink.strokes.size(), first) << c.name;
   ASSERT_FALSE(sink.any_open()) << c.name;
   ASSERT_TRUE(at_rest(*twin)) << c.name;
-  for (std::size_t k = sink.edits.size(); k-- > first;)
-    for (std::size_t q = 0; q < sink.edits[k].blocks.size(); ++q)
-      world->exchange_block_image(sink.edits[k].body, sink.edits[k].blocks[q], sink.edits[k].images[q]);
+  for (std::size_t k = sink.strokes.size(); k-- > first;)
+    for (std::size_t q = 0; q < sink.strokes[k].blocks.size(); ++q)
+      world->exchange_block_image(sink.strokes[k].body, sink.strokes[k].blocks[q], sink.strokes[k].images[q]);
   for (int t = 0; t < 400; ++t) {
     world->step(press_along(side, t));
     twin->step(press_along(side, t));
@@ -298,15 +298,15 @@ void undo_then_sculpt(const Case& c) {
   world->set_stroke_sink(nullptr);
 }
 
-TEST(Edits, AnUndoneWorldStepsOnAsIfTheStrokeNeverWas) {
+TEST(Strokes, AnUndoneWorldStepsOnAsIfTheStrokeNeverWas) {
   for (const Case& c : kRunCases) undo_then_sculpt<float>(c);
   undo_then_sculpt<double>({.name = "double, clay", .clay = true});
 }
 
 // The guard's rollback changes every block, sleeping ones too (it puts
-// them back to their snapshot and wakes them): an edit it happens in holds
+// them back to their checkpoint and wakes them): a stroke it happens in holds
 // them all.
-TEST(Edits, TheGuardsRollbackIsCaptured) {
+TEST(Strokes, TheGuardsRollbackIsCaptured) {
   Material m;
   m.stiffness = 2000.0;
   SimSettings s;
@@ -326,7 +326,7 @@ TEST(Edits, TheGuardsRollbackIsCaptured) {
     if (w.stats().blowups == 0) continue;
     ASSERT_TRUE(rec.any_open());
     asleep_at_blowup = asleep_at_blowup || awake < w.body(0).blocks;
-    EXPECT_EQ(rec.edits().back().blocks.size(), w.body(0).blocks) << "tick " << n;
+    EXPECT_EQ(rec.strokes().back().blocks.size(), w.body(0).blocks) << "tick " << n;
   }
   EXPECT_TRUE(asleep_at_blowup) << "the guard must have rolled back blocks that slept";
   rec.close_strokes();
@@ -335,7 +335,7 @@ TEST(Edits, TheGuardsRollbackIsCaptured) {
 
 // A clay cone whose apex has degree 400: its springs to the rim sit in the
 // overflow list of the apex's block, which a press on the rim yields.
-TEST(Edits, ClayYieldingAnOverflowSpringInASleepingBlockIsCaptured) {
+TEST(Strokes, ClayYieldingAnOverflowSpringInASleepingBlockIsCaptured) {
   World<float> w(settings(), 1);
   TriangleMesh cone;
   constexpr std::uint32_t kRim = 400;
@@ -369,24 +369,24 @@ TEST(Edits, ClayYieldingAnOverflowSpringInASleepingBlockIsCaptured) {
 
 // An undone block reaches the viewers in the next step's changes, asleep or
 // not, and only once; the body's box is right again.
-TEST(Edits, ASwapIsAnOrdinaryChangeForTheViewers) {
+TEST(Strokes, AnExchangeIsAnOrdinaryChangeForTheViewers) {
   Material clay;
   clay.plastic = true;
   World<float> w(settings(), 1), untouched(settings(), 1);
   w.add_body(make_icosphere(0.1f, 4), clay);
   untouched.add_body(make_icosphere(0.1f, 4), clay);
-  test::RecordingSink sink(1);
+  test::KeepingSink sink(1);
   w.set_stroke_sink(&sink);
   until_rest(w, [&](int t) { w.step(press_along({0, 1, 0}, t)); }, 150);
-  ASSERT_EQ(sink.edits.size(), 1u);
-  ASSERT_TRUE(sink.edits[0].closed);
+  ASSERT_EQ(sink.strokes.size(), 1u);
+  ASSERT_TRUE(sink.strokes[0].closed);
   w.step({});
   EXPECT_TRUE(w.changes().empty());
   EXPECT_NE(w.hash(), untouched.hash()) << "clay keeps the dent";
-  const test::RecordedEdit& e = sink.edits[0];
+  const test::RecordedStroke& e = sink.strokes[0];
   std::vector<std::vector<std::byte>> images = e.images;
   for (std::size_t q = 0; q < e.blocks.size(); ++q) w.exchange_block_image(0, e.blocks[q], images[q]);
-  EXPECT_EQ(w.hash(), untouched.hash()) << "the only edit undone: the sphere as it was built";
+  EXPECT_EQ(w.hash(), untouched.hash()) << "the only stroke undone: the sphere as it was built";
   EXPECT_EQ(w.body(0).lo, untouched.body(0).lo);
   EXPECT_EQ(w.body(0).hi, untouched.body(0).hi);
   EXPECT_EQ(w.body(0).awake_blocks, 0u) << "as asleep as it was";
@@ -394,9 +394,9 @@ TEST(Edits, ASwapIsAnOrdinaryChangeForTheViewers) {
   std::vector<bool> changed(w.body(0).blocks);
   for (const ChangeRange& r : w.changes())
     for (std::uint32_t i = r.begin; i < r.end; ++i) changed[i / kernel::kBlock] = true;
-  std::vector<bool> swapped(w.body(0).blocks);
-  for (std::uint32_t blk : e.blocks) swapped[blk] = true;
-  EXPECT_EQ(changed, swapped);
+  std::vector<bool> exchanged(w.body(0).blocks);
+  for (std::uint32_t blk : e.blocks) exchanged[blk] = true;
+  EXPECT_EQ(changed, exchanged);
   EXPECT_EQ(w.body(0).awake_blocks, 0u);
   w.step({});
   EXPECT_TRUE(w.changes().empty());
@@ -409,10 +409,10 @@ namespace sculpt::sim {
 namespace {
 
 // Clay's yield writes the rest length of a spring's other end, wherever it
-// is: in a block that sleeps and that the edit has not captured (a press
+// is: in a block that sleeps and that the stroke has not captured (a press
 // too slow to wake its neighbours, in a running world), that block is
 // captured first. Driven by hand here, on one body.
-TEST(Edits, AYieldWritingASleepingBlocksRestLengthCapturesItFirst) {
+TEST(Strokes, AYieldWritingASleepingBlocksRestLengthCapturesItFirst) {
   Material clay;
   clay.plastic = true;
   BodyOptions options;
@@ -431,52 +431,52 @@ TEST(Edits, AYieldWritingASleepingBlocksRestLengthCapturesItFirst) {
     }
   ASSERT_NE(mirror, 0u);
   const std::uint32_t blk_a = i / kernel::kBlock, blk_b = j / kernel::kBlock;
-  test::RecordingSink sink(1);
+  test::KeepingSink sink(1);
   StrokeRecorder<float> recorder(0, b);
   recorder.set_sink(&sink);
   b.strokes = &recorder;
-  b.tools[0].candidate_count = 1;  // a tool near: the edit opens
+  b.tools[0].candidate_count = 1;  // a tool near: the stroke opens
   recorder.begin_broadphase(b);
   recorder.end_broadphase(b, 1);
   will_change(b, blk_a);  // as the tick's start captures every awake block
-  ASSERT_EQ(sink.edits.size(), 1u);
+  ASSERT_EQ(sink.strokes.size(), 1u);
   const float rest = b.rest_length[mirror];
   b.x[i] += 0.2f * (b.x[i] - b.x[j]), b.y[i] += 0.2f * (b.y[i] - b.y[j]), b.z[i] += 0.2f * (b.z[i] - b.z[j]);
   std::vector<std::uint8_t> mask(clay_mask_bytes(b));
   yield_block(b, blk_a, mask.data());
   ASSERT_NE(b.rest_length[mirror], rest) << "the spring must have yielded";
-  ASSERT_EQ(sink.edits[0].blocks, (std::vector<std::uint32_t>{blk_a, blk_b}));
-  exchange_block_state(b, recorder.layout(), blk_b, sink.edits[0].images[1].data());
+  ASSERT_EQ(sink.strokes[0].blocks, (std::vector<std::uint32_t>{blk_a, blk_b}));
+  exchange_block_state(b, recorder.layout(), blk_b, sink.strokes[0].images[1].data());
   EXPECT_EQ(b.rest_length[mirror], rest) << "B's image holds its rest length from before the yield";
   b.strokes = nullptr, b.stroke_done = nullptr;
 }
 
-// A scripted change (World::set_state) between the ticks of an edit is the
-// edit's too: its block, and the blocks whose forces it changes. (Sanitized:
+// A scripted change (World::set_state) between the ticks of a stroke is the
+// stroke's too: its block, and the blocks whose forces it changes. (Sanitized:
 // 21 blocks, not 81; the press still leaves the far side's blocks untouched.)
-TEST(Edits, ScriptedChangesDuringAnEditAreCaptured) {
+TEST(Strokes, ScriptedChangesDuringAnStrokeAreCaptured) {
   World<float> w(settings(), 1);
   w.add_body(make_icosphere(0.1f, test::kSanitized ? 4 : 5), Material{});
   Recorder<float> rec(w);
   for (int t = 0; t < 60; ++t) rec.step(press_along({0, 1, 0}, t));
   ASSERT_TRUE(rec.any_open());
-  // The vertex farthest from the tool, in a block the edit has not touched.
+  // The vertex farthest from the tool, in a block the stroke has not touched.
   std::uint32_t far = 0;
   for (std::uint32_t i = 0; i < w.body(0).n; ++i)
     if (w.position(0, i)[1] < w.position(0, far)[1]) far = i;
   const std::uint32_t blk = w.body(0).to_internal[far] / kernel::kBlock;
-  for (std::uint32_t captured : rec.edits().back().blocks) ASSERT_NE(captured, blk);
+  for (std::uint32_t captured : rec.strokes().back().blocks) ASSERT_NE(captured, blk);
   w.set_state(0, far, {0.0, -0.11, 0.0}, {0.0, -0.1, 0.0});
   until_rest(w, [&](int t) { rec.step(press_along({0, 1, 0}, 60 + t)); }, 150);
   rec.undo_all("set_state");
 }
 
-// When an edit opens, is released and closes, against what the broadphase
+// When a stroke opens, is released and closes, against what the broadphase
 // and the sleeping say; the tools it records; close_strokes mid-stroke.
-TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
+TEST(Strokes, AStrokeRunsFromTheFirstToolNearToRest) {
   World<float> w(settings(), 2);
   w.add_body(make_icosphere(0.1f, 4), Material{});
-  test::RecordingSink sink(1);
+  test::KeepingSink sink(1);
   w.set_stroke_sink(&sink);
   std::uint64_t near_first = 0, near_last = 0, rest = 0;
   for (int n = 0; n < 8000 && (n < 300 || sink.any_open()); ++n) {
@@ -490,10 +490,10 @@ TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
     const Tool tools[2] = {a, b};
     w.step(tools);
     if (w.stats().candidate_blocks > 0) near_last = w.tick(), near_first = near_first ? near_first : w.tick();
-    if (!rest && !sink.edits.empty() && sink.edits[0].closed) rest = w.tick();
+    if (!rest && !sink.strokes.empty() && sink.strokes[0].closed) rest = w.tick();
   }
-  ASSERT_EQ(sink.edits.size(), 1u);
-  const StrokeSummary& e = sink.edits[0].summary;
+  ASSERT_EQ(sink.strokes.size(), 1u);
+  const StrokeSummary& e = sink.strokes[0].summary;
   EXPECT_GT(near_first, 1u) << "it starts far away";
   EXPECT_EQ(e.first_tick, near_first);
   EXPECT_EQ(e.release_tick, near_last + 1);
@@ -509,27 +509,27 @@ TEST(Edits, AnEditRunsFromTheFirstToolNearToRest) {
     a.position = {0.0, 0.13 - 0.0004 * n, 0.0};
     w.step({&a, 1});
   }
-  ASSERT_EQ(sink.edits.size(), 2u);
+  ASSERT_EQ(sink.strokes.size(), 2u);
   w.close_strokes();
-  EXPECT_TRUE(sink.edits[1].closed);
-  EXPECT_EQ(sink.edits[1].summary.release_tick, 0u);
-  EXPECT_EQ(sink.edits[1].summary.last_tick, w.tick());
+  EXPECT_TRUE(sink.strokes[1].closed);
+  EXPECT_EQ(sink.strokes[1].summary.release_tick, 0u);
+  EXPECT_EQ(sink.strokes[1].summary.last_tick, w.tick());
   w.step({&a, 1});
-  ASSERT_EQ(sink.edits.size(), 3u);
-  EXPECT_EQ(sink.edits[2].summary.first_tick, w.tick());
+  ASSERT_EQ(sink.strokes.size(), 3u);
+  EXPECT_EQ(sink.strokes[2].summary.first_tick, w.tick());
   w.set_stroke_sink(nullptr);  // closes it
-  EXPECT_TRUE(sink.edits[2].closed);
+  EXPECT_TRUE(sink.strokes[2].closed);
   w.step({&a, 1});
-  EXPECT_EQ(sink.edits.size(), 3u) << "no sink, no edits";
+  EXPECT_EQ(sink.strokes.size(), 3u) << "no sink, no strokes";
 }
 
 // sim_fuzz's random and degenerate meshes, materials and tool paths
-// (teleports, grab toggles, garbage input, blow-ups): every edit's capture
+// (teleports, grab toggles, garbage input, blow-ups): every stroke's capture
 // complete, each undone to its onset, and redone to the same bytes.
-TEST(Edits, RandomMeshesAndToolsCaptureEverything) {
+TEST(Strokes, RandomMeshesAndToolsCaptureEverything) {
   std::mt19937 rng(20260321);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::size_t edits = 0, blowups = 0;
+  std::size_t strokes = 0, blowups = 0;
   for (int round = 0; round < 16; ++round) {
     SimSettings s;
     s.integrator = static_cast<Integrator>(round % 3);
@@ -561,18 +561,18 @@ TEST(Edits, RandomMeshesAndToolsCaptureEverything) {
       rec.step(tools);
     }
     rec.close_strokes();
-    edits += rec.edits().size();
+    strokes += rec.strokes().size();
     blowups += w.stats().blowups_total;
     const std::vector<std::byte> before = w.state();
     rec.undo_all("round " + std::to_string(round));
     rec.redo_all();
     EXPECT_TRUE(w.state() == before) << "round " << round;
   }
-  EXPECT_GT(edits, 16u);
+  EXPECT_GT(strokes, 16u);
   EXPECT_GT(blowups, 0u);
 }
 
-TEST(Edits, BadSwapsAreRefusedByNameAndChangeNothing) {
+TEST(Strokes, BadExchangesAreRefusedByNameAndChangeNothing) {
   World<float> w(SimSettings{}, 1);
   w.add_body(make_icosphere(0.1f, 3), Material{});
   const std::size_t bytes = w.block_image_bytes(0);
@@ -594,17 +594,17 @@ TEST(Edits, BadSwapsAreRefusedByNameAndChangeNothing) {
   refused([&] { w.exchange_block_image(0, 0, longer); }, "bytes");
   refused([&] { w.block_image(0, 0, longer); }, "bytes");
   refused([&] { (void)w.block_image_bytes(2); }, "body 2");
-  test::RecordingSink sink(1);
+  test::KeepingSink sink(1);
   w.set_stroke_sink(&sink);
   Tool t;
   t.radius = 0.02;
   t.position = {0.0, 0.115, 0.0};
   w.step({&t, 1});
-  ASSERT_EQ(sink.edits.size(), 1u);
+  ASSERT_EQ(sink.strokes.size(), 1u);
   const std::vector<std::byte> touched = w.state();
   try {
     w.exchange_block_image(0, 0, image);
-    ADD_FAILURE() << "a swap into an open edit was accepted";
+    ADD_FAILURE() << "an exchange into an open stroke was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("close_strokes"), std::string::npos) << e.what();
   }

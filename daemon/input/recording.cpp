@@ -1,4 +1,4 @@
-#include "input/session.hpp"
+#include "input/recording.hpp"
 
 #include <libevdev/libevdev.h>
 #include <linux/input.h>
@@ -23,7 +23,7 @@ std::string code_name(std::uint16_t type, std::uint16_t code) {
 }
 
 [[noreturn]] void fail(const std::string& where, const std::string& what) {
-  throw SessionError(fmt::format("{}: {}", where, what));
+  throw RecordingError(fmt::format("{}: {}", where, what));
 }
 
 // An integer JSON value as int64: nlohmann reads 18446744073709551615 as an
@@ -153,15 +153,15 @@ DeviceInfo device_from_json(const json& j, const std::string& where, std::size_t
 
 }  // namespace
 
-std::string header_to_json(const SessionHeader& h) {
+std::string header_to_json(const RecordingHeader& h) {
   json devices = json::array();
   for (const auto& d : h.devices) devices.push_back(device_to_json(d));
-  json j = {{"format", kSessionFormat}, {"version", h.version}, {"devices", devices}};
+  json j = {{"format", kRecordingFormat}, {"version", h.version}, {"devices", devices}};
   if (!h.description.empty()) j["description"] = h.description;
   return j.dump();
 }
 
-SessionHeader header_from_json(std::string_view line, const std::string& where) {
+RecordingHeader header_from_json(std::string_view line, const std::string& where) {
   json j;
   try {
     j = json::parse(line);
@@ -169,24 +169,24 @@ SessionHeader header_from_json(std::string_view line, const std::string& where) 
     fail(where, fmt::format("the header is not valid JSON ({})", e.what()));
   }
   if (!j.is_object()) fail(where, "the header must be a JSON object");
-  if (get_str(j, "format", where, "header", true) != kSessionFormat)
-    fail(where, fmt::format("not a session file: 'format' is not \"{}\"", kSessionFormat));
-  SessionHeader h;
+  if (get_str(j, "format", where, "header", true) != kRecordingFormat)
+    fail(where, fmt::format("not a recording: 'format' is not \"{}\"", kRecordingFormat));
+  RecordingHeader h;
   h.version = get_int<int>(j, "version", where, "header", 0, true);
-  if (h.version != kSessionVersion)
-    fail(where, fmt::format("session format version {} is not supported (this build reads version {})",
-                            h.version, kSessionVersion));
+  if (h.version != kRecordingVersion)
+    fail(where, fmt::format("recording format version {} is not supported (this build reads version {})",
+                            h.version, kRecordingVersion));
   h.description = get_str(j, "description", where, "header", false);
   auto it = j.find("devices");
   if (it == j.end() || !it->is_array()) fail(where, "header: 'devices' must be an array");
-  if (it->empty()) fail(where, "header: 'devices' is empty: a session needs at least one device");
+  if (it->empty()) fail(where, "header: 'devices' is empty: a recording needs at least one device");
   if (it->size() > kMaxDevices)
     fail(where, fmt::format("header: {} devices, at most {} are supported", it->size(), kMaxDevices));
   for (std::size_t i = 0; i < it->size(); ++i) h.devices.push_back(device_from_json((*it)[i], where, i));
   return h;
 }
 
-std::string frame_to_json(const SessionFrame& f) {
+std::string frame_to_json(const RecordingFrame& f) {
   std::string s = fmt::format("[{},{},[", f.t_us, f.device);
   for (std::size_t i = 0; i < f.events.size(); ++i)
     s += fmt::format("{}[{},{},{}]", i ? "," : "", f.events[i].type, f.events[i].code, f.events[i].value);
@@ -197,10 +197,10 @@ std::string frame_to_json(const SessionFrame& f) {
 namespace {
 
 // The common shape of a frame line, [t, d, [[type, code, value], ...]] with
-// integers, read without building a JSON tree (a 30 s session has ~10k such
+// integers, read without building a JSON tree (a 30 s recording has ~10k such
 // lines; sanitized builds parse JSON slowly). Anything else, including every
 // error, goes through the JSON parser, which says what is wrong.
-std::optional<SessionFrame> frame_fast(std::string_view s, std::size_t devices) {
+std::optional<RecordingFrame> frame_fast(std::string_view s, std::size_t devices) {
   const char* p = s.data();
   const char* const end = p + s.size();
   auto ws = [&] {
@@ -221,7 +221,7 @@ std::optional<SessionFrame> frame_fast(std::string_view s, std::size_t devices) 
     p = r.ptr;
     return p == end || *p == ',' || *p == ']' || *p == ' ';
   };
-  SessionFrame f;
+  RecordingFrame f;
   std::int64_t t = 0, d = 0;
   if (!ch('[') || !num(t) || !ch(',') || !num(d) || !ch(',') || !ch('[')) return std::nullopt;
   if (t < 0 || d < 0 || static_cast<std::uint64_t>(d) >= devices) return std::nullopt;
@@ -246,7 +246,7 @@ std::optional<SessionFrame> frame_fast(std::string_view s, std::size_t devices) 
 }
 
 // Any frame line, through the JSON parser: every error names what is wrong.
-SessionFrame frame_checked(std::string_view line, const std::string& where, std::size_t devices) {
+RecordingFrame frame_checked(std::string_view line, const std::string& where, std::size_t devices) {
   json j;
   try {
     j = json::parse(line);
@@ -255,7 +255,7 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
   }
   if (!j.is_array() || j.size() != 3)
     fail(where, "a frame must be [t_us, device, [[type, code, value], ...]]");
-  SessionFrame f;
+  RecordingFrame f;
   if (!j[0].is_number_integer() || int_value(j[0]) < 0 || int_value(j[0]) == INT64_MAX)
     fail(where, "t_us must be a non-negative integer (microseconds) below 2^63 - 1");
   f.t_us = int_value(j[0]);
@@ -283,23 +283,23 @@ SessionFrame frame_checked(std::string_view line, const std::string& where, std:
 
 }  // namespace
 
-SessionFrame frame_from_json(std::string_view line, const std::string& where, std::size_t devices) {
+RecordingFrame frame_from_json(std::string_view line, const std::string& where, std::size_t devices) {
   if (auto f = frame_fast(line, devices)) return std::move(*f);
   return frame_checked(line, where, devices);
 }
 
-SessionWriter::SessionWriter(const std::filesystem::path& file, const SessionHeader& header)
+RecordingWriter::RecordingWriter(const std::filesystem::path& file, const RecordingHeader& header)
     : file_(file), out_(file, std::ios::out | std::ios::trunc), devices_(header.devices.size()) {
-  if (!out_) throw SessionError(fmt::format("{}: cannot open for writing", file.string()));
-  if (header.devices.empty()) throw SessionError(fmt::format("{}: a session needs at least one device", file.string()));
+  if (!out_) throw RecordingError(fmt::format("{}: cannot open for writing", file.string()));
+  if (header.devices.empty()) throw RecordingError(fmt::format("{}: a recording needs at least one device", file.string()));
   out_ << header_to_json(header) << '\n';
 }
 
-void SessionWriter::write(const SessionFrame& frame) { write(frame.t_us, frame.device, frame.events.data(), frame.events.size()); }
+void RecordingWriter::write(const RecordingFrame& frame) { write(frame.t_us, frame.device, frame.events.data(), frame.events.size()); }
 
-void SessionWriter::write(std::int64_t t_us, std::uint32_t device, const InputEvent* events, std::size_t count) {
-  if (device >= devices_) throw SessionError(fmt::format("{}: frame for device {} of {}", file_.string(), device, devices_));
-  if (t_us < last_t_) t_us = last_t_;  // time never runs backwards in a session
+void RecordingWriter::write(std::int64_t t_us, std::uint32_t device, const InputEvent* events, std::size_t count) {
+  if (device >= devices_) throw RecordingError(fmt::format("{}: frame for device {} of {}", file_.string(), device, devices_));
+  if (t_us < last_t_) t_us = last_t_;  // time never runs backwards in a recording
   last_t_ = t_us;
   std::string s = fmt::format("[{},{},[", t_us, device);
   for (std::size_t i = 0; i < count; ++i)
@@ -309,28 +309,28 @@ void SessionWriter::write(std::int64_t t_us, std::uint32_t device, const InputEv
   ++frames_;
 }
 
-void SessionWriter::close() {
+void RecordingWriter::close() {
   out_.flush();
-  if (!out_) throw SessionError(fmt::format("{}: write failed (disk full?)", file_.string()));
+  if (!out_) throw RecordingError(fmt::format("{}: write failed (disk full?)", file_.string()));
   out_.close();
 }
 
-SessionReader::SessionReader(const std::filesystem::path& file) : file_(file) {
+RecordingReader::RecordingReader(const std::filesystem::path& file) : file_(file) {
   // A FIFO or a device would block or never end: regular files only.
   try {
-    files::check_regular(file, kMaxSessionBytes);
+    files::check_regular(file, kMaxRecordingBytes);
   } catch (const files::FileError& e) {
-    throw SessionError(fmt::format("{}: {}", file.string(), e.reason()));
+    throw RecordingError(fmt::format("{}: {}", file.string(), e.reason()));
   }
   in_.open(file, std::ios::binary);
-  if (!in_) throw SessionError(fmt::format("{}: cannot open the session file", file.string()));
+  if (!in_) throw RecordingError(fmt::format("{}: cannot open the recording", file.string()));
   std::string line;
-  if (!read_line(line)) throw SessionError(fmt::format("{}:1: empty file, expected a session header", file.string()));
+  if (!read_line(line)) throw RecordingError(fmt::format("{}:1: empty file, expected a recording header", file.string()));
   line_ = 1;
   header_ = header_from_json(line, fmt::format("{}:1", file.string()));
 }
 
-bool SessionReader::read_line(std::string& line) {
+bool RecordingReader::read_line(std::string& line) {
   line.clear();
   std::streambuf* buf = in_.rdbuf();
   for (;;) {
@@ -338,13 +338,13 @@ bool SessionReader::read_line(std::string& line) {
     if (c == std::char_traits<char>::eof()) return !line.empty();
     if (c == '\n') return true;
     if (line.size() == kMaxLineBytes)
-      throw SessionError(fmt::format("{}:{}: the line is longer than {} bytes: not a session line", file_.string(),
+      throw RecordingError(fmt::format("{}:{}: the line is longer than {} bytes: not a recording line", file_.string(),
                                      line_ + 1, kMaxLineBytes));
     line.push_back(static_cast<char>(c));
   }
 }
 
-std::optional<SessionFrame> SessionReader::next() {
+std::optional<RecordingFrame> RecordingReader::next() {
   std::string line;
   while (read_line(line)) {
     ++line_;
@@ -352,34 +352,34 @@ std::optional<SessionFrame> SessionReader::next() {
     // The "file:line" is formatted only for a line the fast path does not take.
     auto where = [&] { return fmt::format("{}:{}", file_.string(), line_); };
     auto fast = frame_fast(line, header_.devices.size());
-    SessionFrame f = fast ? std::move(*fast) : frame_checked(line, where(), header_.devices.size());
+    RecordingFrame f = fast ? std::move(*fast) : frame_checked(line, where(), header_.devices.size());
     if (f.t_us < last_t_)
       fail(where(), fmt::format("t_us {} is earlier than the previous frame's {} (frames must be in time order)",
                                 f.t_us, last_t_));
     last_t_ = f.t_us;
     return f;
   }
-  if (in_.bad()) throw SessionError(fmt::format("{}: read error after line {}", file_.string(), line_));
+  if (in_.bad()) throw RecordingError(fmt::format("{}: read error after line {}", file_.string(), line_));
   return std::nullopt;
 }
 
-Session read_session(const std::filesystem::path& file) {
-  SessionReader r(file);
-  Session s;
+Recording read_recording(const std::filesystem::path& file) {
+  RecordingReader r(file);
+  Recording s;
   s.header = r.header();
   while (auto f = r.next()) s.frames.push_back(std::move(*f));
   return s;
 }
 
-void check_session(const std::filesystem::path& file) {
-  SessionReader r(file);
+void check_recording(const std::filesystem::path& file) {
+  RecordingReader r(file);
   while (r.next()) {
   }
 }
 
-void write_session(const std::filesystem::path& file, const Session& session) {
-  SessionWriter w(file, session.header);
-  for (const auto& f : session.frames) w.write(f);
+void write_recording(const std::filesystem::path& file, const Recording& recording) {
+  RecordingWriter w(file, recording.header);
+  for (const auto& f : recording.frames) w.write(f);
   w.close();
 }
 
