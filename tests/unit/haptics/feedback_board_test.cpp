@@ -4,34 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <cstdlib>
-#include <new>
 #include <thread>
 
 #include "haptics/feedback_board.hpp"
-
-namespace {
-std::atomic<long> g_allocations{0};
-}
-void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void* operator new[](std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#include "support/allocation_counter.hpp"
 
 namespace sculpt::haptics {
 namespace {
@@ -94,9 +70,11 @@ TEST(FeedbackBoard, OutOfRangeToolsAreIgnored) {
 
 TEST(FeedbackBoard, PublishDoesNotAllocate) {
   FeedbackBoard board(4);
-  const long before = g_allocations.load();
+  sculpt::support::reset_counted_allocations();
+  sculpt::support::count_allocations_on_this_thread(true);
   for (int i = 0; i < 10000; ++i) board.publish(i % 4, feedback(i, -i, 0.5, 1, i % 7 == 0, 0.001));
-  EXPECT_EQ(g_allocations.load(), before);
+  sculpt::support::count_allocations_on_this_thread(false);
+  EXPECT_EQ(sculpt::support::counted_allocations(), 0);
 }
 
 TEST(FeedbackBoard, ReadersNeverSeeATornValue) {
