@@ -31,7 +31,6 @@
 #include <fstream>
 #include <map>
 #include <regex>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -42,6 +41,7 @@
 #include "jitter_histogram.hpp"
 #include "sculptd_process.hpp"
 #include "support/child_process.hpp"
+#include "support/read_file.hpp"
 
 using namespace sculpt;
 using namespace std::chrono_literals;
@@ -98,13 +98,6 @@ double max_us(const Histogram& h) {
   for (auto it = h.rbegin(); it != h.rend(); ++it)
     if (it->second.second > 0) return static_cast<double>(it->second.first) * 1e-3;
   return 0;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 // `recording` played `loops` times, each copy `period_us` after the last;
@@ -164,7 +157,7 @@ int main(int argc, char** argv) {
   std::string scene = argv[1];
   if (subdivisions > 0) {
     // The same layout, its spheres finer.
-    std::string text = read_file(scene);
+    std::string text = support::read_file(scene);
     text = std::regex_replace(text, std::regex(R"(subdivisions\s*=\s*\d+)"), "subdivisions = " + std::to_string(subdivisions));
     scene = (tmp / "scene.toml").string();
     std::ofstream(scene) << text;
