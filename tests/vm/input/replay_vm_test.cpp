@@ -101,6 +101,12 @@ Recorded replayed_only(const Recorded& events) {
   return out;
 }
 
+// How long the replayed devices stay after their last frame. evdev drops what
+// a removed device's readers had not read yet, so the reader (in the guest, on
+// a host that may be busy) must get to the last release first: seconds, not
+// the fraction a quiet machine needs.
+constexpr const char* kHoldS = "2";
+
 TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) {
   const Recording recording = make_recording();
   const auto file = temp("replay_vm.jsonl");
@@ -109,7 +115,7 @@ TEST(UinputReplay, RecreatesDevicesAnswersFfAndDeliversEventsWithRecordedTimes) 
   Recorded events;
   DeviceManager manager(events);
   manager.start();
-  ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", "0.3", file.string()},
+  ChildProcess replay({SCULPTCTL_BIN, "replay", "--settle", "1.0", "--hold", kHoldS, file.string()},
                       {.out = ChildProcess::Output::capture});
   ASSERT_TRUE(pump_until(manager, [&] { return events.attaches.size() >= 2; },
                          scaled(std::chrono::milliseconds(8000))))
@@ -231,7 +237,7 @@ TEST(UinputReplay, ShippedRecordingsPlay) {
     DeviceManager manager(events);
     manager.start();
     // Fast (50x): this checks the devices and that it plays to the end.
-    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "50", "--settle", "0.3", "--hold", "0.2", file.string()},
+    ChildProcess replay({SCULPTCTL_BIN, "replay", "--speed", "50", "--settle", "0.3", "--hold", kHoldS, file.string()},
                         {.out = ChildProcess::Output::capture});
     ASSERT_TRUE(pump_until(manager, [&] { return events.detaches.size() >= s.header.devices.size(); },
                            scaled(std::chrono::milliseconds(30000))))
