@@ -337,18 +337,7 @@ TEST(Strokes, TheGuardsRollbackIsCaptured) {
 // overflow list of the apex's block, which a press on the rim yields.
 TEST(Strokes, ClayYieldingAnOverflowSpringInASleepingBlockIsCaptured) {
   World<float> w(settings(), 1);
-  TriangleMesh cone;
-  constexpr std::uint32_t kRim = 400;
-  cone.positions.push_back({0.0f, 0.15f, 0.0f});
-  for (std::uint32_t k = 0; k < kRim; ++k) {
-    const float a = 6.2831853f * static_cast<float>(k) / kRim;
-    cone.positions.push_back({0.05f * std::cos(a), 0.1f, 0.05f * std::sin(a)});
-  }
-  cone.positions.push_back({0.0f, 0.1f, 0.0f});
-  for (std::uint32_t k = 1; k <= kRim; ++k) {
-    cone.triangles.push_back({0, k % kRim + 1, k});
-    cone.triangles.push_back({kRim + 1, k, k % kRim + 1});
-  }
+  const TriangleMesh cone = test::closed_cone(400);
   Material m;
   m.plastic = true;
   w.add_body(cone, m);

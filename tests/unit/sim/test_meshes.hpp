@@ -45,6 +45,23 @@ inline Material bare(ForceModel model, double mass, double k) {
   return m;
 }
 
+// A closed cone of `rim` rim vertices: its apex and base centre have degree
+// `rim`, so their springs overflow the block's ELL rows (the overflow paths).
+inline TriangleMesh closed_cone(std::uint32_t rim) {
+  TriangleMesh cone;
+  cone.positions.push_back({0.0f, 0.15f, 0.0f});
+  for (std::uint32_t k = 0; k < rim; ++k) {
+    const float a = 6.2831853f * static_cast<float>(k) / static_cast<float>(rim);
+    cone.positions.push_back({0.05f * std::cos(a), 0.1f, 0.05f * std::sin(a)});
+  }
+  cone.positions.push_back({0.0f, 0.1f, 0.0f});
+  for (std::uint32_t k = 1; k <= rim; ++k) {
+    cone.triangles.push_back({0, k % rim + 1, k});
+    cone.triangles.push_back({rim + 1, k, k % rim + 1});
+  }
+  return cone;
+}
+
 // A straight chain 0..n+1 along x (spacing h); triangles {i, i+1, i+1}
 // contribute the one edge each. Ends are pinned by the caller.
 inline TriangleMesh chain(int free_masses, float h) {
